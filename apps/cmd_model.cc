@@ -1,0 +1,50 @@
+#include <cmath>
+#include <cstdio>
+
+#include <CLI/CLI.hpp>
+
+#include "apps/commands.h"
+#include "core/files.h"
+#include <mujoco/mujoco.h>
+
+#include "sim/scene.h"
+
+namespace bidex::apps {
+
+void add_model_command(CLI::App& app) {
+  struct Opts {
+    std::string hand = "both", out, spec, base = "fixed", physics;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand(
+      "model", "Write standalone MJCF of the generated Shadow Hand(s); MuJoCo's own tools open it");
+  cmd->add_option("--hand", o->hand, "Which hand: right, left or both")
+      ->check(CLI::IsMember({"right", "left", "both"}))
+      ->capture_default_str();
+  cmd->add_option("--out,-o", o->out, "Output file (MJCF XML)")->required();
+  cmd->add_option("--spec", o->spec, "Hand spec YAML (default: configs/hands/shadow.yaml)");
+  cmd->add_option("--base", o->base, "Base of each hand: fixed, or free (6-DoF, damped)")
+      ->check(CLI::IsMember({"fixed", "free"}))
+      ->capture_default_str();
+  cmd->add_option("--physics", o->physics, "Physics YAML (default: configs/sim/physics.yaml)");
+  cmd->footer(
+      "Example:\n  bidex model --hand both --out hands.xml && mujoco-compile hands.xml hands.mjb");
+  cmd->callback([o] {
+    auto spec = sim::load_hand_spec(o->spec.empty() ? sim::default_hand_path() : o->spec);
+    auto physics = sim::load_physics(o->physics.empty() ? sim::default_physics_path() : o->physics);
+    sim::SceneBuilder sb(physics);
+    sim::Base base = o->base == "free" ? sim::Base::kFree : sim::Base::kFixed;
+    // hands face each other across the y axis, as in hand_over
+    if (o->hand != "left")
+      sb.add_hand(spec, {sim::Side::kRight, sim::Pose::rpy({0, 0, 0.5}, 0, 0, 0), base});
+    if (o->hand != "right")
+      sb.add_hand(spec, {sim::Side::kLeft, sim::Pose::rpy({0, -1, 0.5}, 0, 0, M_PI), base});
+    // compile before writing: a file on disk is always a model MuJoCo accepts
+    sim::SimModel model = sb.build(o->out);
+    write_file_atomic(o->out, model.mjcf());
+    std::printf("wrote %s: %d bodies, %d joints, %d actuators, %d sensors\n", o->out.c_str(),
+                model.nbody(), model.mj()->njnt, model.nu(), model.mj()->nsensor);
+  });
+}
+
+}  // namespace bidex::apps

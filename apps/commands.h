@@ -1,0 +1,20 @@
+// The subcommands of `bidex`; each adds itself to the CLI11 app and runs from its callback.
+#pragma once
+
+namespace CLI {
+class App;
+}
+
+#include <string>
+
+namespace bidex::apps {
+
+// The command line this process was started with, for results files.
+const std::string& command_line();
+void set_command_line(int argc, char** argv);
+
+void add_model_command(CLI::App& app);  // bidex model: write standalone MJCF of the hands
+void add_sim_command(CLI::App& app);    // bidex sim: step the two-hand scene, random actions
+void add_bench_command(CLI::App& app);  // bidex bench sim|soak: throughput and fault soak
+
+}  // namespace bidex::apps

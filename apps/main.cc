@@ -1,0 +1,51 @@
+// bidex: the command line of the platform. Every command has --help.
+#include <cstdio>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "apps/commands.h"
+#include "core/error.h"
+
+namespace bidex::apps {
+namespace {
+std::string g_command_line;
+}
+const std::string& command_line() { return g_command_line; }
+void set_command_line(int argc, char** argv) {
+  g_command_line = "bidex";
+  for (int i = 1; i < argc; ++i) g_command_line += std::string(" ") + argv[i];
+}
+}  // namespace bidex::apps
+
+int main(int argc, char** argv) {
+  bidex::apps::set_command_line(argc, argv);
+  CLI::App app{"bidex: bimanual dexterous manipulation benchmark (two Shadow Hands, batched MuJoCo)"};
+  app.require_subcommand(1);
+  app.set_help_all_flag("--help-all", "Print help for every command");
+  bidex::apps::add_model_command(app);
+  bidex::apps::add_sim_command(app);
+  bidex::apps::add_bench_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const bidex::ConfigError& e) {
+    std::fprintf(stderr, "bidex: error: %s\n", e.what());
+    return 2;
+  } catch (const bidex::ModelError& e) {
+    std::fprintf(stderr, "bidex: error: %s\n", e.what());
+    return 2;
+  } catch (const bidex::IoError& e) {
+    std::fprintf(stderr, "bidex: error: %s\n", e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "bidex: error: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,50 @@
+// Throughput of the batched simulation against a plain OpenMP loop of mj_step over the same
+// worlds, measured in one run; and a soak run counting faults under random actions.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json_fwd.hpp>
+
+#include "sim/physics.h"
+
+namespace bidex::bench {
+
+struct SimBenchConfig {
+  std::vector<int> threads{1};        // thread counts to measure
+  std::vector<int> slots{256};        // slot counts to measure
+  double min_seconds = 1.0;           // per measurement (at least one control step)
+  int rounds = 3;                     // alternations of baseline and batch; the best of each is kept
+  double max_force = 83.3;            // random base force (N), catch_underarm's limit
+  double max_torque = 8.33;           // random base torque (N m)
+  int memory_slots = 8192;            // slots of the memory measurement (0: skip)
+  sim::PhysicsOptions physics;
+  std::string hand_path;
+  bool progress = true;
+};
+
+// Runs every (slots, threads) pair and returns the results as JSON.
+nlohmann::json run_sim_bench(const SimBenchConfig& cfg);
+
+struct SoakConfig {
+  int slots = 256;
+  int64_t slot_steps = 1000000;  // control steps summed over slots
+  int threads = 0;
+  uint64_t seed = 1;
+  double max_force = 83.3;
+  double max_torque = 8.33;
+  sim::PhysicsOptions physics;
+  std::string hand_path;
+  bool progress = true;
+};
+
+// Steps the two-hand scene under random actions; returns counts of faults by kind, rates and
+// the largest MuJoCo memory use seen (stack, contacts, constraint rows).
+nlohmann::json run_soak(const SoakConfig& cfg);
+
+// Machine facts for a results file: host name, CPU model, cores, date (UTC), git commit.
+nlohmann::json machine_info();
+
+}  // namespace bidex::bench

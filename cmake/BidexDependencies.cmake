@@ -1,0 +1,40 @@
+# every dependency is a Debian 12 package (see README); LibTorch may instead come from an
+# installed PyTorch through CMAKE_PREFIX_PATH (python3 -c "import torch;print(torch.utils.cmake_prefix_path)")
+find_package(mujoco 2.2 REQUIRED)
+# Debian's mujoco config names /usr/include/libqhull_r/, which only libqhull-dev provides and
+# which we never include: keep only the include folders that exist
+get_target_property(_mj_inc mujoco::mujoco INTERFACE_INCLUDE_DIRECTORIES)
+set(_mj_keep "")
+foreach(_dir IN LISTS _mj_inc)
+  if(EXISTS "${_dir}")
+    list(APPEND _mj_keep "${_dir}")
+  endif()
+endforeach()
+set_target_properties(mujoco::mujoco PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${_mj_keep}")
+find_package(yaml-cpp REQUIRED)
+find_package(SQLite3 REQUIRED)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(OpenMP REQUIRED COMPONENTS CXX)
+find_package(CLI11 REQUIRED)
+find_package(nlohmann_json 3 REQUIRED)
+find_package(Torch REQUIRED)
+if(BIDEX_TESTS)
+  find_package(Catch2 2 REQUIRED)
+endif()
+
+# yaml-cpp 0.7 in Debian exports the plain target name
+if(TARGET yaml-cpp::yaml-cpp)
+  set(BIDEX_YAML yaml-cpp::yaml-cpp)
+else()
+  set(BIDEX_YAML yaml-cpp)
+endif()
+
+# Torch's config hands back flags and libraries as variables: wrap them in one target
+add_library(bidex_torch INTERFACE)
+target_link_libraries(bidex_torch INTERFACE ${TORCH_LIBRARIES})
+target_include_directories(bidex_torch SYSTEM INTERFACE ${TORCH_INCLUDE_DIRS})
+set(BIDEX_TORCH_CUDA OFF)
+if(TORCH_CUDA_LIBRARIES OR CAFFE2_USE_CUDA)
+  set(BIDEX_TORCH_CUDA ON)
+endif()
+message(STATUS "bidex: MuJoCo ${mujoco_VERSION}, Torch ${Torch_VERSION}, Torch CUDA: ${BIDEX_TORCH_CUDA}")

@@ -1,0 +1,258 @@
+#include "sim/batch.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <mutex>
+
+#include <mujoco/mujoco.h>
+#include <omp.h>
+
+#include "core/error.h"
+
+namespace bidex::sim {
+
+namespace {
+
+// MuJoCo prints every warning by default; in a batch they are counted per slot instead
+// (d->warning) and surface as fault flags, so the global printer stays quiet.
+void quiet_warning(const char*) {}
+
+void install_warning_handler() {
+  static std::once_flag once;
+  std::call_once(once, [] { mju_user_warning = quiet_warning; });
+}
+
+int warning_total(const mjData* d) {
+  int n = 0;
+  for (int i = 0; i < mjNWARNING; ++i)
+    if (i != mjWARN_VGEOMFULL) n += d->warning[i].number;
+  return n;
+}
+
+bool all_finite(const double* x, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(x[i])) return false;
+  return true;
+}
+
+double uniform(std::mt19937_64& rng, double lo, double hi) {
+  double u = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+  return lo + (hi - lo) * u;
+}
+
+}  // namespace
+
+SimBatch::SimBatch(const SimModel& model, int nslot, BatchOptions options)
+    : model_(&model), nslot_(nslot), seed_(options.seed) {
+  if (nslot <= 0)
+    throw ConfigError("", "batch.nslot", "a slot count > 0", std::to_string(nslot));
+  install_warning_handler();
+  set_threads(options.threads);
+  const SimModel& m = model;
+
+  // contiguous arrays (NaN-filled in debug builds, so an unwritten value shows)
+#ifdef BIDEX_NAN_FILL
+  const double fill = std::numeric_limits<double>::quiet_NaN();
+#else
+  const double fill = 0.0;
+#endif
+#define BIDEX_X(name, width, doc) \
+  name##_width = (width);         \
+  name.assign(static_cast<size_t>(nslot) * name##_width, fill);
+  BIDEX_BATCH_INPUTS(BIDEX_X)
+  BIDEX_BATCH_OUTPUTS(BIDEX_X)
+#undef BIDEX_X
+  time.assign(nslot, 0.0);
+  fault.assign(nslot, 0);
+  fault_count.assign(nslot, 0);
+  episode.assign(nslot, -1);
+  warnings_seen_.assign(nslot, 0);
+  rng_.resize(nslot);
+
+  // one mjData per slot; then every slot starts from the initial state
+  data_.assign(nslot, nullptr);
+  for (int s = 0; s < nslot; ++s) {
+    data_[s] = mj_makeData(m.mj());
+    if (!data_[s]) throw std::bad_alloc();
+  }
+  reset_all(m, *this);
+}
+
+SimBatch::~SimBatch() {
+  for (mjData* d : data_)
+    if (d) mj_deleteData(d);
+}
+
+void SimBatch::set_threads(int n) { threads_ = n > 0 ? n : omp_get_max_threads(); }
+
+SlotView SimBatch::slot(int s) {
+  SlotView v;
+#define BIDEX_X(name, width, doc) v.name = name.data() + static_cast<size_t>(s) * name##_width;
+  BIDEX_BATCH_INPUTS(BIDEX_X)
+  BIDEX_BATCH_OUTPUTS(BIDEX_X)
+#undef BIDEX_X
+  return v;
+}
+
+int64_t SimBatch::total_faults() const {
+  int64_t n = 0;
+  for (auto c : fault_count) n += c;
+  return n;
+}
+
+size_t SimBatch::bytes() const {
+  size_t b = static_cast<size_t>(nslot_) * model_->data_bytes();
+#define BIDEX_X(name, width, doc) b += name.size() * sizeof(double);
+  BIDEX_BATCH_INPUTS(BIDEX_X)
+  BIDEX_BATCH_OUTPUTS(BIDEX_X)
+#undef BIDEX_X
+  b += rng_.size() * sizeof(std::mt19937_64) + nslot_ * (sizeof(double) + 3 * sizeof(int64_t));
+  return b;
+}
+
+namespace {
+
+// copies a slot's MuJoCo state into its rows of the contiguous output arrays
+void write_outputs(const mjModel* m, const mjData* d, SimBatch& b, int s) {
+  SlotView v = b.slot(s);
+  std::memcpy(v.qpos, d->qpos, sizeof(double) * m->nq);
+  std::memcpy(v.qvel, d->qvel, sizeof(double) * m->nv);
+  std::memcpy(v.qfrc_actuator, d->qfrc_actuator, sizeof(double) * m->nv);
+  std::memcpy(v.qfrc_constraint, d->qfrc_constraint, sizeof(double) * m->nv);
+  std::memcpy(v.sensordata, d->sensordata, sizeof(double) * m->nsensordata);
+  std::memcpy(v.xpos, d->xpos, sizeof(double) * m->nbody * 3);
+  std::memcpy(v.xquat, d->xquat, sizeof(double) * m->nbody * 4);
+  std::memcpy(v.cvel, d->cvel, sizeof(double) * m->nbody * 6);
+  b.time[s] = d->time;
+}
+
+// the applied force on every body: gravity compensation plus each free base's wrench
+void apply_wrench(const SimModel& model, mjData* d, const double* wrench) {
+  const auto& comp = model.gravity_compensation();
+  std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
+  const auto& hands = model.hands();
+  for (size_t h = 0; h < hands.size(); ++h) {
+    if (!hands[h].free_base) continue;
+    double* row = d->xfrc_applied + hands[h].root_body * 6;
+    for (int k = 0; k < 6; ++k) row[k] += wrench[h * 6 + k];
+  }
+}
+
+}  // namespace
+
+void reset_slot(const SimModel& model, SimBatch& b, int s) {
+  const mjModel* m = model.mj();
+  mjData* d = b.data_[s];
+  mj_resetData(m, d);
+
+  // position targets at the current joint angles (inside the control range)
+  for (int a = 0; a < m->nu; ++a) {
+    double target = 0;
+    if (m->actuator_trntype[a] == mjTRN_JOINT)
+      target = d->qpos[m->jnt_qposadr[m->actuator_trnid[2 * a]]];
+    if (m->actuator_ctrllimited[a])
+      target = std::clamp(target, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+    d->ctrl[a] = target;
+  }
+  SlotView v = b.slot(s);
+  std::memcpy(v.ctrl, d->ctrl, sizeof(double) * m->nu);
+  std::fill(v.base_wrench, v.base_wrench + b.base_wrench_width, 0.0);
+  apply_wrench(model, d, v.base_wrench);
+  mj_forward(m, d);
+
+  // a new episode: its own random stream
+  b.episode[s] += 1;
+  std::seed_seq seq{static_cast<uint32_t>(b.seed_), static_cast<uint32_t>(b.seed_ >> 32),
+                    static_cast<uint32_t>(s), static_cast<uint32_t>(b.episode[s]),
+                    static_cast<uint32_t>(b.episode[s] >> 32)};
+  b.rng_[s].seed(seq);
+  b.warnings_seen_[s] = warning_total(d);
+  write_outputs(m, d, b, s);
+}
+
+void reset_all(const SimModel& model, SimBatch& b) {
+#pragma omp parallel for schedule(static) num_threads(b.threads())
+  for (int s = 0; s < b.nslot(); ++s) reset_slot(model, b, s);
+}
+
+void sync_slot(const SimModel& model, SimBatch& b, int s) {
+  mjData* d = b.data_[s];
+  mj_forward(model.mj(), d);
+  b.warnings_seen_[s] = warning_total(d);
+  write_outputs(model.mj(), d, b, s);
+}
+
+void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* post) {
+  const mjModel* m = model.mj();
+  const int substeps = model.physics().substeps;
+  const double max_speed = model.physics().max_speed;
+  const int nu = m->nu, nw = b.base_wrench_width;
+
+#pragma omp parallel for schedule(static) num_threads(b.threads())
+  for (int s = 0; s < b.nslot(); ++s) {
+    mjData* d = b.data_[s];
+    const double* ctrl = b.ctrl.data() + static_cast<size_t>(s) * nu;
+    const double* wrench = b.base_wrench.data() + static_cast<size_t>(s) * nw;
+    uint32_t f = kFaultNone;
+
+    // 1. inputs
+    if (!all_finite(ctrl, nu) || !all_finite(wrench, nw)) {
+      f |= kFaultBadInput;
+    } else {
+      std::memcpy(d->ctrl, ctrl, sizeof(double) * nu);
+      apply_wrench(model, d, wrench);
+
+      // 2. physics: step2 then step1 keeps positions, velocities and sensors consistent with
+      // the new state at the end (same cost as mj_step)
+      const double t0 = d->time;
+      for (int k = 0; k < substeps; ++k) {
+        mj_step2(m, d);
+        mj_step1(m, d);
+      }
+
+      // 3. faults (MuJoCo resets a slot itself on a bad acceleration: time goes back)
+      if (!all_finite(d->qpos, m->nq) || !all_finite(d->qvel, m->nv) ||
+          !all_finite(d->qacc, m->nv))
+        f |= kFaultNonFinite;
+      double vmax = 0;
+      for (int i = 0; i < m->nv; ++i) vmax = std::max(vmax, std::abs(d->qvel[i]));
+      if (vmax > max_speed) f |= kFaultExploded;
+      if (warning_total(d) != b.warnings_seen_[s] || d->time < t0) f |= kFaultMujocoWarn;
+    }
+
+    // 4. outputs, or a reset of a faulty slot
+    b.fault[s] = f;
+    if (f != kFaultNone) {
+      b.fault_count[s] += 1;
+      reset_slot(model, b, s);
+    } else {
+      write_outputs(m, d, b, s);
+    }
+
+    // 5. per-slot work of the caller
+    if (post) (*post)(s);
+  }
+}
+
+void random_inputs(const SimModel& model, SimBatch& b, double max_force, double max_torque) {
+  const mjModel* m = model.mj();
+  const auto& hands = model.hands();
+#pragma omp parallel for schedule(static) num_threads(b.threads())
+  for (int s = 0; s < b.nslot(); ++s) {
+    auto& rng = b.rng(s);
+    SlotView v = b.slot(s);
+    for (int a = 0; a < m->nu; ++a)
+      v.ctrl[a] = uniform(rng, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+    for (size_t h = 0; h < hands.size(); ++h) {
+      double* w = v.base_wrench + h * 6;
+      for (int k = 0; k < 6; ++k) {
+        double lim = k < 3 ? max_force : max_torque;
+        w[k] = hands[h].free_base ? uniform(rng, -lim, lim) : 0.0;
+      }
+    }
+  }
+}
+
+}  // namespace bidex::sim

@@ -1,0 +1,134 @@
+// SimBatch: the mutable state of N slots (worlds) of one SimModel, and the functions that step
+// and reset them in parallel over all cores. Every array leads with the slot dimension.
+//
+// The step, per slot, inside one parallel loop (OpenMP, any thread count gives bitwise identical
+// results because slots never share mutable state and each has its own random stream):
+//   1. inputs: ctrl and base_wrench rows are checked (non-finite -> fault) and copied in
+//   2. physics: `substeps` MuJoCo steps
+//   3. faults: non-finite or exploding state, or a MuJoCo warning, flags and resets the slot
+//   4. outputs: state rows (qpos, qvel, ...) are copied out
+//   5. the caller's per-slot hook (tasks: rewards, resets, observations) runs on the same core
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include "sim/model.h"
+
+struct mjData_;
+typedef struct mjData_ mjData;
+
+namespace bidex::sim {
+
+// The fields of a batch, listed once: name, values per slot (an expression of SimModel `m`),
+// and who writes it. Allocation, copies, NaN fill and the Python/torch views derive from this.
+#define BIDEX_BATCH_INPUTS(X)                                                           \
+  X(ctrl, m.nu(), "input: actuator targets (rad), written by the caller / apply_actions") \
+  X(base_wrench, m.nwrench(), "input: world-frame force (N) and torque (N m) per hand base")
+
+#define BIDEX_BATCH_OUTPUTS(X)                                                              \
+  X(qpos, m.nq(), "output: generalized positions, written by step")                         \
+  X(qvel, m.nv(), "output: generalized velocities, written by step")                        \
+  X(qfrc_actuator, m.nv(), "output: actuator force per dof, written by step")               \
+  X(qfrc_constraint, m.nv(), "output: constraint force per dof, written by step")           \
+  X(sensordata, m.nsensordata(), "output: sensor values (fingertip force/torque), by step") \
+  X(xpos, m.nbody() * 3, "output: body positions (world), written by step")                 \
+  X(xquat, m.nbody() * 4, "output: body orientations (w, x, y, z), written by step")        \
+  X(cvel, m.nbody() * 6, "output: body com-based velocities (rot, lin), written by step")
+
+// Why a slot was reset after a step (bits of SimBatch::fault).
+enum FaultBits : uint32_t {
+  kFaultNone = 0,
+  kFaultBadInput = 1u << 0,     // non-finite ctrl or base wrench
+  kFaultNonFinite = 1u << 1,    // non-finite qpos/qvel/qacc after the step
+  kFaultExploded = 1u << 2,     // |qvel| above PhysicsOptions::max_speed
+  kFaultMujocoWarn = 1u << 3,   // MuJoCo warned (bad qacc, contact/constraint buffer full, ...)
+};
+
+struct BatchOptions {
+  int threads = 0;        // 0: all cores (OpenMP default)
+  uint64_t seed = 0;      // run seed of the per-slot random streams
+};
+
+// A view of one slot's state rows (pointers into the batch's contiguous arrays).
+struct SlotView {
+#define BIDEX_X(name, width, doc) double* name;
+  BIDEX_BATCH_INPUTS(BIDEX_X)
+  BIDEX_BATCH_OUTPUTS(BIDEX_X)
+#undef BIDEX_X
+};
+
+class SimBatch {
+ public:
+  SimBatch(const SimModel& model, int nslot, BatchOptions options = {});
+  ~SimBatch();
+  SimBatch(const SimBatch&) = delete;
+  SimBatch& operator=(const SimBatch&) = delete;
+
+  int nslot() const { return nslot_; }
+  int threads() const { return threads_; }
+  void set_threads(int n);
+  const SimModel& model() const { return *model_; }
+
+  // contiguous arrays, (nslot, width) row-major
+#define BIDEX_X(name, width, doc) \
+  std::vector<double> name;      \
+  int name##_width = 0;
+  BIDEX_BATCH_INPUTS(BIDEX_X)
+  BIDEX_BATCH_OUTPUTS(BIDEX_X)
+#undef BIDEX_X
+
+  std::vector<double> time;           // (nslot) simulated seconds since the slot's last reset
+  std::vector<uint32_t> fault;        // (nslot) FaultBits of the last step, 0 if none
+  std::vector<int64_t> fault_count;   // (nslot) faults since construction
+  std::vector<int64_t> episode;       // (nslot) resets so far (seeds the random stream)
+
+  SlotView slot(int s);
+  // The slot's random stream, seeded from (seed, slot, episode) at every reset.
+  std::mt19937_64& rng(int s) { return rng_[s]; }
+  // The MuJoCo data of one slot (for task code that needs MuJoCo functions).
+  mjData* data(int s) { return data_[s]; }
+  const mjData* data(int s) const { return data_[s]; }
+
+  int64_t total_faults() const;
+  // Bytes held by the batch (all mjData plus the contiguous arrays).
+  size_t bytes() const;
+
+ private:
+  friend void step(const SimModel&, SimBatch&, const std::function<void(int)>*);
+  friend void reset_slot(const SimModel&, SimBatch&, int);
+  friend void sync_slot(const SimModel&, SimBatch&, int);
+
+  const SimModel* model_;
+  int nslot_ = 0;
+  int threads_ = 1;
+  uint64_t seed_ = 0;
+  std::vector<mjData*> data_;
+  std::vector<std::mt19937_64> rng_;
+  std::vector<int> warnings_seen_;  // (nslot) MuJoCo warning total before the step
+};
+
+// Steps every slot by one control step (`substeps` physics steps). `post` (optional) runs per
+// slot on the thread that stepped it, after outputs are written. Never throws for bad state:
+// faulty slots are flagged in `fault`, counted and reset.
+void step(const SimModel& model, SimBatch& batch,
+          const std::function<void(int)>* post = nullptr);
+
+// Puts one slot back to the scene's initial state (hands at their placements, joints at 0 inside
+// their ranges, targets at the current joints, zero velocity), advances its episode counter,
+// reseeds its random stream and writes its output rows.
+void reset_slot(const SimModel& model, SimBatch& batch, int slot);
+void reset_all(const SimModel& model, SimBatch& batch);
+
+// After task code edits a slot's mjData (qpos, qvel) directly: recompute derived quantities and
+// rewrite the slot's output rows.
+void sync_slot(const SimModel& model, SimBatch& batch, int slot);
+
+// Writes uniformly random inputs into every slot's rows from its own stream: actuator targets
+// over their control ranges, base forces/torques up to the given magnitudes.
+void random_inputs(const SimModel& model, SimBatch& batch, double max_force, double max_torque);
+
+}  // namespace bidex::sim
