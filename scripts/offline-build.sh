@@ -14,7 +14,8 @@ cd "$(dirname "$0")/.."
 
 debs=(libmujoco2.2.2 libmujoco-dev libccd2 liblodepng0 libqhull-r8.0 libtinyxml2-9
       libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen3-dev
-      libcli11-dev nlohmann-json3-dev)
+      libcli11-dev nlohmann-json3-dev
+      libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0)  # OpenGL: named by mujocoConfig.cmake
 
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
