@@ -26,7 +26,10 @@ std::string num(double v) {
 template <class A>
 std::string nums(const A& a) {
   std::string s;
-  for (size_t i = 0; i < a.size(); ++i) s += (i ? " " : "") + num(a[i]);
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (i) s += ' ';
+    s += num(a[i]);
+  }
   return s;
 }
 
