@@ -26,7 +26,7 @@ at::Tensor to_tensor(const std::vector<double>& field, int nslot, int width,
                                torch::TensorOptions().dtype(torch::kFloat64))
                   .to(torch::kFloat32);
   if (device.is_cpu()) return host;
-  return host.pin_memory().to(device, /*non_blocking=*/false);
+  return host.to(device);
 }
 
 void from_tensor(const at::Tensor& t, std::vector<double>& field, int nslot, int width) {
