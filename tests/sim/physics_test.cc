@@ -1,0 +1,135 @@
+// sim/physics: physics YAML files are read strictly (unknown keys and bad values are errors).
+#include "sim/physics.h"
+
+#include <catch2/catch.hpp>
+
+#include "core/files.h"
+#include "core/yaml.h"
+#include "tests/fixture.h"
+
+using namespace bidex;
+using namespace bidex::sim;
+using bidex::test::check_config_error;
+using bidex::test::config_error;
+using bidex::test::TempDir;
+
+TEST_CASE("the project's physics.yaml loads into valid options", "[sim][physics]") {
+  PhysicsOptions p = load_physics(default_physics_path());
+  CHECK(p.timestep > 0);
+  CHECK(p.substeps >= 1);
+  CHECK(p.control_dt() == Approx(p.timestep * p.substeps));
+  // every key of the file is one the parser knows: re-reading the file alone gives the same
+  auto root = YamlView::load_file(default_physics_path());
+  PhysicsOptions again = parse_physics(root, PhysicsOptions{});
+  CHECK(again.timestep == p.timestep);
+  CHECK(again.solver == p.solver);
+  CHECK(again.coupling_solref == p.coupling_solref);
+}
+
+TEST_CASE("parse_physics reads every key and keeps defaults for absent ones", "[sim][physics]") {
+  auto v = YamlView::load_string(R"(timestep: 0.002
+substeps: 8
+integrator: RK4
+solver: PGS
+iterations: 7
+tolerance: 1.0e-6
+cone: elliptic
+contact_solref: [0.02, 0.9]
+contact_solimp: [0.9, 0.95, 0.002, 0.4, 3.0]
+coupling_solref: [0.003, 1.1]
+coupling_solimp: [0.98, 0.997, 0.0005, 0.6, 2.5]
+gravity_free_hands: false
+njmax: 123
+nconmax: 45
+nstack: 6789
+max_speed: 321.5
+)",
+                                 "all.yaml");
+  PhysicsOptions p = parse_physics(v);
+  CHECK(p.timestep == 0.002);
+  CHECK(p.substeps == 8);
+  CHECK(p.control_dt() == Approx(0.016));
+  CHECK(p.integrator == "RK4");
+  CHECK(p.solver == "PGS");
+  CHECK(p.iterations == 7);
+  CHECK(p.tolerance == 1.0e-6);
+  CHECK(p.cone == "elliptic");
+  CHECK(p.contact_solref == std::array<double, 2>{0.02, 0.9});
+  CHECK(p.contact_solimp == std::array<double, 5>{0.9, 0.95, 0.002, 0.4, 3.0});
+  CHECK(p.coupling_solref == std::array<double, 2>{0.003, 1.1});
+  CHECK(p.coupling_solimp == std::array<double, 5>{0.98, 0.997, 0.0005, 0.6, 2.5});
+  CHECK(p.gravity_free_hands == false);
+  CHECK(p.njmax == 123);
+  CHECK(p.nconmax == 45);
+  CHECK(p.nstack == 6789);
+  CHECK(p.max_speed == 321.5);
+
+  PhysicsOptions base;
+  base.iterations = 99;
+  PhysicsOptions partial = parse_physics(YamlView::load_string("substeps: 2\n", "p.yaml"), base);
+  CHECK(partial.substeps == 2);
+  CHECK(partial.iterations == 99);             // from `base`
+  CHECK(partial.timestep == base.timestep);   // untouched
+  CHECK(partial.solver == base.solver);
+}
+
+TEST_CASE("bad physics YAML is a ConfigError naming file, key, expected and actual",
+          "[sim][physics]") {
+  TempDir dir;
+  const std::string base = read_file(default_physics_path());
+  std::string path = dir.file("physics.yaml");
+  // replaces the whole line that sets `key` (the file's values are tuned by others: match the key
+  // only), or appends `line` when `key` is empty
+  auto load_edited = [&](const std::string& key, const std::string& line) {
+    std::string text = base;
+    if (key.empty()) {
+      text += "\n" + line + "\n";
+    } else {
+      size_t at = text.rfind("\n" + key + ":");
+      INFO("physics.yaml sets " << key);
+      REQUIRE(at != std::string::npos);
+      size_t end = text.find('\n', at + 1);
+      text.replace(at + 1, end == std::string::npos ? std::string::npos : end - at - 1, line);
+    }
+    write_file_atomic(path, text);
+    return config_error([&] { load_physics(path); });
+  };
+
+  SECTION("an unknown key") {
+    auto e = load_edited("", "substep_count: 4");
+    check_config_error(e, path, "substep_count", "one of the keys {timestep, substeps",
+                       "unknown key 'substep_count'");
+  }
+  SECTION("a solver MuJoCo does not have") {
+    auto e = load_edited("solver", "solver: Gauss");
+    check_config_error(e, path, "solver", "one of Newton, CG, PGS", "'Gauss'");
+  }
+  SECTION("an unknown integrator") {
+    auto e = load_edited("integrator", "integrator: implicit");
+    check_config_error(e, path, "integrator", "one of Euler, RK4", "'implicit'");
+  }
+  SECTION("a negative timestep") {
+    auto e = load_edited("timestep", "timestep: -0.004");
+    check_config_error(e, path, "timestep", "a number > 0", "-0.004");
+  }
+  SECTION("zero substeps") {
+    auto e = load_edited("substeps", "substeps: 0");
+    check_config_error(e, path, "substeps", "an integer > 0", "0");
+  }
+  SECTION("a fractional iteration count") {
+    auto e = load_edited("iterations", "iterations: 2.5");
+    check_config_error(e, path, "iterations", "an integer", "2.5");
+  }
+  SECTION("a solref of the wrong length") {
+    auto e = load_edited("coupling_solref", "coupling_solref: [0.005]");
+    check_config_error(e, path, "coupling_solref", "a list of 2 numbers", "[0.005]");
+  }
+  SECTION("a string inside solimp") {
+    auto e = load_edited("contact_solimp", "contact_solimp: [0.95, high, 0.001, 0.5, 2.0]");
+    check_config_error(e, path, "contact_solimp[1]", "a number", "high");
+  }
+  SECTION("a string where a boolean is expected") {
+    auto e = load_edited("gravity_free_hands", "gravity_free_hands: sometimes");
+    check_config_error(e, path, "gravity_free_hands", "true or false", "sometimes");
+  }
+}
