@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "bench/physics_study.h"
 #include "bench/sim_bench.h"
 #include "core/files.h"
 #include "sim/hand_spec.h"
@@ -83,6 +84,74 @@ void add_bench_command(CLI::App& app) {
     so->physics = sim::load_physics(soak_physics->empty() ? sim::default_physics_path()
                                                           : *soak_physics);
     emit(bench::run_soak(*so), *soak_out, command_line());
+  });
+
+  // bench physics
+  auto ps = std::make_shared<bench::PhysicsStudyConfig>();
+  auto ps_out = std::make_shared<std::string>();
+  auto ps_physics = std::make_shared<std::string>();
+  auto* phys = bench->add_subcommand(
+      "physics",
+      "The physics study: sweeps timestep/substeps, solver, contact and coupling softness, finger "
+      "damping and gain, joint friction and base damping one at a time around the current "
+      "configuration; for "
+      "each: cost (1 thread), faults under random actions (catch_underarm's and the hardest "
+      "task's base limits), the egg at rest on the palm, coupling error during a finger sweep, "
+      "the free base's hang and push, a finger step response; then memory per slot");
+  phys->add_option("--groups", ps->groups,
+                   "Sweeps to run: timestep, solver, contact, coupling, damping, frictionloss, kp, "
+                   "base; 'reference' alone runs the reference only (default: all)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"reference", "timestep", "solver", "contact", "coupling", "damping",
+                             "frictionloss", "kp", "base"}));
+  phys->add_option("--soak-slot-steps", ps->soak.slot_steps,
+                   "Random-action slot-steps per candidate at catch_underarm's limits")
+      ->capture_default_str();
+  phys->add_option("--hard-slot-steps", ps->hard.slot_steps,
+                   "Slot-steps per candidate at the hardest limits (0: skip)")
+      ->capture_default_str();
+  phys->add_option("--slots", ps->soak.slots, "Slots of each soak (one thread)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  phys->add_option("--episode-steps", ps->soak.episode_steps,
+                   "Reset each soak slot this often (staggered; 0: never)")
+      ->capture_default_str();
+  phys->add_option("--force", ps->soak.max_force, "Random base force (N) of the soak")
+      ->capture_default_str();
+  phys->add_option("--torque", ps->soak.max_torque, "Random base torque (N m) of the soak")
+      ->capture_default_str();
+  phys->add_option("--hard-force", ps->hard.max_force, "Random base force (N) of the hard soak")
+      ->capture_default_str();
+  phys->add_option("--hard-torque", ps->hard.max_torque,
+                   "Random base torque (N m) of the hard soak")
+      ->capture_default_str();
+  phys->add_option("--seed", ps->soak.seed, "Seed of the soaks (the hard soak uses seed + 1)")
+      ->capture_default_str();
+  phys->add_option("--cost-steps", ps->cost.steps,
+                   "Control steps of each cost round (16 slots, one thread)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  phys->add_option("--cost-rounds", ps->cost.rounds,
+                   "Identical cost rounds per candidate, the fastest kept (0: skip)")
+      ->capture_default_str();
+  phys->add_option("--memory-slots", ps->memory_slots, "Slot count of the memory figures")
+      ->capture_default_str();
+  phys->add_option("--physics", *ps_physics,
+                   "Reference physics YAML (default: configs/sim/physics.yaml)");
+  phys->add_option("--spec", ps->hand_path, "Reference hand spec YAML");
+  phys->add_option("--out,-o", *ps_out, "Write the JSON here (atomically) instead of stdout");
+  phys->footer(
+      "About 5 minutes on 2 cores at the defaults (each soak runs on one thread).\n"
+      "Examples:\n"
+      "  bidex bench physics -o bench/results/physics_study-MACHINE.json\n"
+      "  bidex bench physics --groups solver,contact --soak-slot-steps 2000 --hard-slot-steps 0");
+  phys->callback([ps, ps_out, ps_physics] {
+    ps->physics = sim::load_physics(ps_physics->empty() ? sim::default_physics_path()
+                                                        : *ps_physics);
+    ps->hard.slots = ps->soak.slots;
+    ps->hard.episode_steps = ps->soak.episode_steps;
+    ps->hard.seed = ps->soak.seed + 1;
+    ps->cost.max_force = ps->soak.max_force;
+    ps->cost.max_torque = ps->soak.max_torque;
+    emit(bench::run_physics_study(*ps), *ps_out, command_line());
   });
 }
 

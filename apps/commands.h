@@ -15,6 +15,6 @@ void set_command_line(int argc, char** argv);
 
 void add_model_command(CLI::App& app);  // bidex model: write standalone MJCF of the hands
 void add_sim_command(CLI::App& app);    // bidex sim: step the two-hand scene, random actions
-void add_bench_command(CLI::App& app);  // bidex bench sim|soak: throughput and fault soak
+void add_bench_command(CLI::App& app);  // bidex bench sim|soak|physics
 
 }  // namespace bidex::apps

@@ -12,21 +12,23 @@ class YamlView;
 namespace bidex::sim {
 
 struct PhysicsOptions {
-  double timestep = 1.0 / 240.0;  // s per physics step
-  int substeps = 4;               // physics steps per control step (60 Hz control)
+  double timestep = 1.0 / 480.0;  // s per physics step
+  int substeps = 8;               // physics steps per control step (60 Hz control)
   std::string integrator = "Euler";  // Euler (implicit joint damping) or RK4
   std::string solver = "Newton";     // Newton, CG or PGS
-  int iterations = 20;               // main solver iterations
+  int iterations = 20;               // main solver iterations (a cap)
   double tolerance = 1e-8;           // solver early-exit tolerance
   std::string cone = "pyramidal";    // friction cone: pyramidal or elliptic
-  std::array<double, 2> contact_solref{0.01, 1.0};             // time constant (s), damping ratio
-  std::array<double, 5> contact_solimp{0.95, 0.99, 0.001, 0.5, 2.0};
-  std::array<double, 2> coupling_solref{0.005, 1.0};           // distal-middle coupling
+  // contacts, the hands' self-contact pairs included: time constant (s; MuJoCo raises it to at
+  // least 2 timesteps), damping ratio; impedance
+  std::array<double, 2> contact_solref{2.0 / 480.0, 1.0};
+  std::array<double, 5> contact_solimp{0.99, 0.999, 0.001, 0.5, 2.0};
+  std::array<double, 2> coupling_solref{2.0 / 480.0, 1.0};     // distal-middle coupling
   std::array<double, 5> coupling_solimp{0.99, 0.999, 0.001, 0.5, 2.0};
   bool gravity_free_hands = true;  // hands carry no weight, as in the original
-  int njmax = 300;    // constraint rows per world (limits, couplings, contacts)
-  int nconmax = 80;   // contacts per world
-  int nstack = 60000; // mjData stack (mjtNums) per world
+  int njmax = 128;    // constraint rows per world (joint friction, limits, couplings, contacts)
+  int nconmax = 32;   // contacts per world
+  int nstack = 28000; // mjData stack (mjtNums) per world; too small aborts the process
   double max_speed = 1000.0;  // a |qvel| above this (m/s or rad/s) is an exploded slot
 
   double control_dt() const { return timestep * substeps; }
