@@ -140,8 +140,11 @@ std::string SceneBuilder::mjcf() const {
   x << "  <size njmax=\"" << p.njmax << "\" nconmax=\"" << p.nconmax << "\" nstack=\"" << p.nstack
     << "\"/>\n";
   x << "  <visual><global offwidth=\"1280\" offheight=\"960\"/></visual>\n";
+  // explicit <pair>s (the hands' self-contacts) do not take geom defaults: give them the same
+  // softness, or they keep MuJoCo's own (solref 0.02), five times softer
   x << "  <default>\n    <geom solref=\"" << nums(p.contact_solref) << "\" solimp=\""
-    << nums(p.contact_solimp) << "\" friction=\"1 0.005 0.0001\"/>\n  </default>\n";
+    << nums(p.contact_solimp) << "\" friction=\"1 0.005 0.0001\"/>\n    <pair solref=\""
+    << nums(p.contact_solref) << "\" solimp=\"" << nums(p.contact_solimp) << "\"/>\n  </default>\n";
   x << "  <asset>\n    <texture name=\"grid\" type=\"2d\" builtin=\"checker\" width=\"256\" "
        "height=\"256\" rgb1=\".25 .28 .32\" rgb2=\".3 .33 .37\"/>\n"
        "    <material name=\"grid\" texture=\"grid\" texrepeat=\"8 8\"/>\n  </asset>\n";
