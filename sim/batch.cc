@@ -19,9 +19,19 @@ namespace {
 // (d->warning) and surface as fault flags, so the global printer stays quiet.
 void quiet_warning(const char*) {}
 
-void install_warning_handler() {
+// MuJoCo 2.2.2 ends the process on an engine error (a full mjData stack, for one); thrown
+// instead, the error unwinds to the slot's step, which flags and resets that slot alone.
+struct MujocoError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+void throw_error(const char* msg) { throw MujocoError(msg); }
+
+void install_handlers() {
   static std::once_flag once;
-  std::call_once(once, [] { mju_user_warning = quiet_warning; });
+  std::call_once(once, [] {
+    mju_user_warning = quiet_warning;
+    mju_user_error = throw_error;
+  });
 }
 
 int warning_total(const mjData* d) {
@@ -48,7 +58,7 @@ SimBatch::SimBatch(const SimModel& model, int nslot, BatchOptions options)
     : model_(&model), nslot_(nslot), seed_(options.seed) {
   if (nslot <= 0)
     throw ConfigError("", "batch.nslot", "a slot count > 0", std::to_string(nslot));
-  install_warning_handler();
+  install_handlers();
   set_threads(options.threads);
   const SimModel& m = model;
 
@@ -128,19 +138,29 @@ void write_outputs(const mjModel* m, const mjData* d, SimBatch& b, int s) {
   b.time[s] = d->time;
 }
 
-// the applied force on every body: gravity compensation plus each free base's wrench
-void apply_wrench(const SimModel& model, mjData* d, const double* wrench) {
+}  // namespace
+
+void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench) {
+  const mjModel* m = model.mj();
+  std::memcpy(d->ctrl, ctrl, sizeof(double) * m->nu);
   const auto& comp = model.gravity_compensation();
   std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
   const auto& hands = model.hands();
   for (size_t h = 0; h < hands.size(); ++h) {
     if (!hands[h].free_base) continue;
-    double* row = d->xfrc_applied + hands[h].root_body * 6;
-    for (int k = 0; k < 6; ++k) row[k] += wrench[h * 6 + k];
+    // xfrc_applied acts at the body's centre of mass: move the force to the pivot
+    const int b = hands[h].root_body;
+    const double* f = wrench + h * 6;
+    double r[3], moment[3];
+    for (int k = 0; k < 3; ++k) r[k] = d->xpos[3 * b + k] - d->xipos[3 * b + k];
+    mju_cross(moment, r, f);
+    double* row = d->xfrc_applied + b * 6;
+    for (int k = 0; k < 3; ++k) {
+      row[k] += f[k];
+      row[3 + k] += f[3 + k] + moment[k];
+    }
   }
 }
-
-}  // namespace
 
 void reset_slot(const SimModel& model, SimBatch& b, int s) {
   const mjModel* m = model.mj();
@@ -157,9 +177,9 @@ void reset_slot(const SimModel& model, SimBatch& b, int s) {
     d->ctrl[a] = target;
   }
   SlotView v = b.slot(s);
-  std::memcpy(v.ctrl, d->ctrl, sizeof(double) * m->nu);
   std::fill(v.base_wrench, v.base_wrench + b.base_wrench_width, 0.0);
-  apply_wrench(model, d, v.base_wrench);
+  std::memcpy(v.ctrl, d->ctrl, sizeof(double) * m->nu);
+  apply_inputs(model, d, v.ctrl, v.base_wrench);
   mj_forward(m, d);
 
   // a new episode: its own random stream
@@ -201,25 +221,29 @@ void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* po
     if (!all_finite(ctrl, nu) || !all_finite(wrench, nw)) {
       f |= kFaultBadInput;
     } else {
-      std::memcpy(d->ctrl, ctrl, sizeof(double) * nu);
-      apply_wrench(model, d, wrench);
-
       // 2. physics: step2 then step1 keeps positions, velocities and sensors consistent with
       // the new state at the end (same cost as mj_step)
       const double t0 = d->time;
-      for (int k = 0; k < substeps; ++k) {
-        mj_step2(m, d);
-        mj_step1(m, d);
+      try {
+        for (int k = 0; k < substeps; ++k) {
+          apply_inputs(model, d, ctrl, wrench);
+          mj_step2(m, d);
+          mj_step1(m, d);
+        }
+      } catch (const MujocoError&) {
+        f |= kFaultMujocoError;
       }
 
       // 3. faults (MuJoCo resets a slot itself on a bad acceleration: time goes back)
-      if (!all_finite(d->qpos, m->nq) || !all_finite(d->qvel, m->nv) ||
-          !all_finite(d->qacc, m->nv))
-        f |= kFaultNonFinite;
-      double vmax = 0;
-      for (int i = 0; i < m->nv; ++i) vmax = std::max(vmax, std::abs(d->qvel[i]));
-      if (vmax > max_speed) f |= kFaultExploded;
-      if (warning_total(d) != b.warnings_seen_[s] || d->time < t0) f |= kFaultMujocoWarn;
+      if (f == kFaultNone) {
+        if (!all_finite(d->qpos, m->nq) || !all_finite(d->qvel, m->nv) ||
+            !all_finite(d->qacc, m->nv))
+          f |= kFaultNonFinite;
+        double vmax = 0;
+        for (int i = 0; i < m->nv; ++i) vmax = std::max(vmax, std::abs(d->qvel[i]));
+        if (vmax > max_speed) f |= kFaultExploded;
+        if (warning_total(d) != b.warnings_seen_[s] || d->time < t0) f |= kFaultMujocoWarn;
+      }
     }
 
     // 4. outputs, or a reset of a faulty slot

@@ -5,7 +5,7 @@
 // results because slots never share mutable state and each has its own random stream):
 //   1. inputs: ctrl and base_wrench rows are checked (non-finite -> fault) and copied in
 //   2. physics: `substeps` MuJoCo steps
-//   3. faults: non-finite or exploding state, or a MuJoCo warning, flags and resets the slot
+//   3. faults: non-finite or exploding state, a MuJoCo warning or error flags and resets the slot
 //   4. outputs: state rows (qpos, qvel, ...) are copied out
 //   5. the caller's per-slot hook (tasks: rewards, resets, observations) runs on the same core
 #pragma once
@@ -46,7 +46,9 @@ enum FaultBits : uint32_t {
   kFaultNonFinite = 1u << 1,    // non-finite qpos/qvel/qacc after the step
   kFaultExploded = 1u << 2,     // |qvel| above PhysicsOptions::max_speed
   kFaultMujocoWarn = 1u << 3,   // MuJoCo warned (bad qacc, contact/constraint buffer full, ...)
+  kFaultMujocoError = 1u << 4,  // MuJoCo raised an error (e.g. its mjData stack overflowed)
 };
+constexpr int kFaultKinds = 5;
 
 struct BatchOptions {
   int threads = 0;        // 0: all cores (OpenMP default)
@@ -126,6 +128,12 @@ void reset_all(const SimModel& model, SimBatch& batch);
 // After task code edits a slot's mjData (qpos, qvel) directly: recompute derived quantities and
 // rewrite the slot's output rows.
 void sync_slot(const SimModel& model, SimBatch& batch, int slot);
+
+// Writes one slot's inputs into its MuJoCo data: actuator targets, and applied forces = the
+// hands' gravity compensation plus each free base's world-frame force and torque. A base force
+// acts at the base's pivot (the mount origin, where the ball joint turns), so a push translates
+// the hand without turning it. Used by `step`; public so that benchmarks drive worlds the same way.
+void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench);
 
 // Writes uniformly random inputs into every slot's rows from its own stream: actuator targets
 // over their control ranges, base forces/torques up to the given magnitudes.

@@ -412,3 +412,42 @@ TEST_CASE("soak: 64 slots x 150 control steps of random inputs without a fault",
     if (std::abs(batch.time[s] - steps * model.physics().control_dt()) > 1e-9) ++wrong_time;
   CHECK(wrong_time == 0);
 }
+
+TEST_CASE("a MuJoCo error in one slot faults and resets that slot alone", "[sim][batch][faults]") {
+  // two falling boxes with a stack large enough to compile and to fall freely, too small for
+  // their contact: MuJoCo 2.2.2 raises "stack overflow", which would end the process unhandled
+  PhysicsOptions p = bidex::test::physics();
+  p.nstack = 300;
+  SceneBuilder sb(p);
+  sb.set_floor(false);
+  ObjectSpec box;
+  box.name = "low";
+  box.pose.pos = {0, 0, 1.0};
+  sb.add_object(box);
+  box.name = "high";
+  box.pose.pos = {0, 0, 1.2};
+  sb.add_object(box);
+  SimModel model = sb.build("stack_overflow_scene");
+  SimBatch batch(model, 3, {2, 5});
+  const ObjectIndex& high = *model.object("high");
+
+  // slot 1: the upper box is thrown down onto the lower one; the others fall side by side
+  batch.data(1)->qvel[high.dof_adr + 2] = -6.0;
+  sync_slot(model, batch, 1);
+  bool faulted = false;
+  for (int k = 0; k < 10 && !faulted; ++k) {
+    step(model, batch);
+    faulted = batch.fault[1] != kFaultNone;
+    CHECK(batch.fault[0] == kFaultNone);
+    CHECK(batch.fault[2] == kFaultNone);
+  }
+  REQUIRE(faulted);
+  CHECK(batch.fault[1] == kFaultMujocoError);
+  CHECK(batch.fault_count[1] == 1);
+  CHECK(batch.episode[1] == 1);
+  CHECK(batch.data(1)->pstack == 0);
+  // reset to the initial pose, the other slots still falling undisturbed
+  CHECK(batch.qpos[1 * batch.qpos_width + high.qpos_adr + 2] == Approx(1.2));
+  CHECK(batch.qpos[0 * batch.qpos_width + high.qpos_adr + 2] < 1.2);
+  CHECK(batch.total_faults() == 1);
+}
