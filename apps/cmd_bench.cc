@@ -76,6 +76,9 @@ void add_bench_command(CLI::App& app) {
       ->capture_default_str();
   soak->add_option("--torque", so->max_torque, "Largest random base torque (N m)")
       ->capture_default_str();
+  soak->add_option("--episode-steps", so->episode_steps,
+                   "Reset each slot after this many control steps, staggered (0: never)")
+      ->capture_default_str();
   soak->add_option("--physics", *soak_physics, "Physics YAML (default: configs/sim/physics.yaml)");
   soak->add_option("--spec", so->hand_path, "Hand spec YAML");
   soak->add_option("--out,-o", *soak_out, "Write the JSON here (atomically) instead of stdout");

@@ -1,4 +1,5 @@
 #include "bench/physics_study.h"
+#include "bench/sim_bench.h"
 
 #include <algorithm>
 #include <array>
@@ -698,7 +699,7 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
   const int64_t steps = (soak.slot_steps + soak.slots - 1) / soak.slots;
   const auto cps = coupling_index(model, spec);
   const ContactClassifier classify(model);
-  int64_t by_kind[4] = {0, 0, 0, 0};
+  FaultTally tally;
   int maxuse_stack = 0, maxuse_con = 0, maxuse_efc = 0, max_iter = 0;
   int64_t iter_sum = 0, iter_capped = 0, iter_n = 0;
   double max_pen[kKinds] = {}, max_coupling = 0, max_qvel = 0, secs = 0;
@@ -710,10 +711,9 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
     auto t0 = Clock::now();
     sim::step(model, batch);
     secs += seconds_since(t0);
+    tally.add(batch);
     for (int s = 0; s < batch.nslot(); ++s) {
       const mjData* d = batch.data(s);
-      for (int k = 0; k < 4; ++k)
-        if (batch.fault[s] & (1u << k)) ++by_kind[k];
       maxuse_stack = std::max(maxuse_stack, d->maxuse_stack);
       maxuse_con = std::max(maxuse_con, d->maxuse_con);
       maxuse_efc = std::max(maxuse_efc, d->maxuse_efc);
@@ -743,12 +743,7 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
       const double* qvel = batch.qvel.data() + static_cast<size_t>(s) * batch.qvel_width;
       for (int k = 0; k < nv; ++k) max_qvel = std::max(max_qvel, std::abs(qvel[k]));
     }
-    if (soak.episode_steps > 0) {
-      for (int s = 0; s < batch.nslot(); ++s) {
-        int64_t offset = static_cast<int64_t>(s) * soak.episode_steps / batch.nslot();
-        if ((i + 1 + offset) % soak.episode_steps == 0) sim::reset_slot(model, batch, s);
-      }
-    }
+    reset_finished_episodes(model, batch, i, soak.episode_steps);
     if (tick) tick((i + 1) * soak.slots);
   }
   const int64_t slot_steps = steps * soak.slots;
@@ -763,7 +758,7 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
                           {"p99_m", percentile(pens[k], 0.99)},
                           {"p50_m", percentile(pens[k], 0.5)}};
   }
-  return {{"slots", soak.slots},
+  json out{{"slots", soak.slots},
           {"slot_steps", slot_steps},
           {"max_force_n", soak.max_force},
           {"max_torque_nm", soak.max_torque},
@@ -774,10 +769,6 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
           {"slot_steps_per_s", sps},
           {"physics_steps_per_s", sps * model.physics().substeps},
           {"faults", batch.total_faults()},
-          {"faults_bad_input", by_kind[0]},
-          {"faults_non_finite", by_kind[1]},
-          {"faults_exploded", by_kind[2]},
-          {"faults_mujoco_warning", by_kind[3]},
           {"maxuse_stack", maxuse_stack},
           {"maxuse_con", maxuse_con},
           {"maxuse_efc", maxuse_efc},
@@ -789,6 +780,8 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
           {"max_coupling_error_rad", max_coupling},
           {"p99_coupling_error_rad", percentile(coups, 0.99)},
           {"max_abs_qvel", max_qvel}};
+  tally.to_json(out);
+  return out;
 }
 
 json run_physics_study(const PhysicsStudyConfig& cfg) {

@@ -70,24 +70,45 @@ struct Baseline {
   void step(const sim::SimBatch& b, int threads) {
     const mjModel* m = model.mj();
     const int substeps = model.physics().substeps, nu = m->nu, nw = b.base_wrench_width;
-    const auto& comp = model.gravity_compensation();
-    const auto& hands = model.hands();
     const int n = static_cast<int>(data.size());
 #pragma omp parallel for schedule(static) num_threads(threads)
     for (int s = 0; s < n; ++s) {
       mjData* d = data[s];
-      std::memcpy(d->ctrl, b.ctrl.data() + static_cast<size_t>(s) * nu, sizeof(double) * nu);
-      std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
-      for (size_t h = 0; h < hands.size(); ++h)
-        for (int k = 0; k < 6; ++k)
-          d->xfrc_applied[hands[h].root_body * 6 + k] +=
-              b.base_wrench[static_cast<size_t>(s) * nw + h * 6 + k];
-      for (int k = 0; k < substeps; ++k) mj_step(m, d);
+      const double* ctrl = b.ctrl.data() + static_cast<size_t>(s) * nu;
+      const double* wrench = b.base_wrench.data() + static_cast<size_t>(s) * nw;
+      for (int k = 0; k < substeps; ++k) {
+        sim::apply_inputs(model, d, ctrl, wrench);
+        mj_step(m, d);
+      }
     }
   }
 };
 
 }  // namespace
+
+void FaultTally::add(const sim::SimBatch& batch) {
+  static_assert(sizeof(by_kind) / sizeof(by_kind[0]) == sim::kFaultKinds);
+  for (int s = 0; s < batch.nslot(); ++s)
+    for (int k = 0; k < sim::kFaultKinds; ++k)
+      if (batch.fault[s] & (1u << k)) ++by_kind[k];
+}
+
+void FaultTally::to_json(json& out) const {
+  out["faults_bad_input"] = by_kind[0];
+  out["faults_non_finite"] = by_kind[1];
+  out["faults_exploded"] = by_kind[2];
+  out["faults_mujoco_warning"] = by_kind[3];
+  out["faults_mujoco_error"] = by_kind[4];
+}
+
+void reset_finished_episodes(const sim::SimModel& model, sim::SimBatch& batch, int64_t step_index,
+                             int episode_steps) {
+  if (episode_steps <= 0) return;
+  for (int s = 0; s < batch.nslot(); ++s) {
+    int64_t offset = static_cast<int64_t>(s) * episode_steps / batch.nslot();
+    if ((step_index + 1 + offset) % episode_steps == 0) sim::reset_slot(model, batch, s);
+  }
+}
 
 json machine_info() {
   json j;
@@ -199,36 +220,33 @@ json run_soak(const SoakConfig& cfg) {
   sim::SimModel model = build_scene(cfg.hand_path, cfg.physics);
   sim::SimBatch batch(model, cfg.slots, {cfg.threads, cfg.seed});
   const int64_t steps = (cfg.slot_steps + cfg.slots - 1) / cfg.slots;
-  int64_t by_kind[4] = {0, 0, 0, 0};
+  FaultTally tally;
   int maxuse_stack = 0, maxuse_con = 0, maxuse_efc = 0;
   Progress bar("soak", steps * cfg.slots, "slot-steps");
   auto t0 = Clock::now();
   for (int64_t i = 0; i < steps; ++i) {
     sim::random_inputs(model, batch, cfg.max_force, cfg.max_torque);
     sim::step(model, batch);
+    tally.add(batch);
     for (int s = 0; s < batch.nslot(); ++s) {
-      for (int k = 0; k < 4; ++k)
-        if (batch.fault[s] & (1u << k)) ++by_kind[k];
       const mjData* d = batch.data(s);
       maxuse_stack = std::max(maxuse_stack, d->maxuse_stack);
       maxuse_con = std::max(maxuse_con, d->maxuse_con);
       maxuse_efc = std::max(maxuse_efc, d->maxuse_efc);
     }
+    reset_finished_episodes(model, batch, i, cfg.episode_steps);
     if (cfg.progress) bar.update((i + 1) * cfg.slots);
   }
   double secs = seconds_since(t0);
   if (cfg.progress) bar.finish();
   const auto& p = model.physics();
-  return json{{"slots", cfg.slots},
+  json out{{"slots", cfg.slots},
               {"slot_steps", steps * cfg.slots},
               {"threads", batch.threads()},
               {"seconds", secs},
               {"slot_steps_per_s", steps * cfg.slots / secs},
               {"faults", batch.total_faults()},
-              {"faults_bad_input", by_kind[0]},
-              {"faults_non_finite", by_kind[1]},
-              {"faults_exploded", by_kind[2]},
-              {"faults_mujoco_warning", by_kind[3]},
+              {"episode_steps", cfg.episode_steps},
               {"maxuse_stack", maxuse_stack},
               {"nstack", model.mj()->nstack},
               {"maxuse_con", maxuse_con},
@@ -239,6 +257,8 @@ json run_soak(const SoakConfig& cfg) {
               {"substeps", p.substeps},
               {"max_force", cfg.max_force},
               {"max_torque", cfg.max_torque}};
+  tally.to_json(out);
+  return out;
 }
 
 }  // namespace bidex::bench

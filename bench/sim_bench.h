@@ -10,6 +10,11 @@
 
 #include "sim/physics.h"
 
+namespace bidex::sim {
+class SimModel;
+class SimBatch;
+}  // namespace bidex::sim
+
 namespace bidex::bench {
 
 struct SimBenchConfig {
@@ -28,6 +33,18 @@ struct SimBenchConfig {
 // Runs every (slots, threads) pair and returns the results as JSON.
 nlohmann::json run_sim_bench(const SimBenchConfig& cfg);
 
+// Counts of the fault kinds of sim::FaultBits over many steps.
+struct FaultTally {
+  int64_t by_kind[5] = {0, 0, 0, 0, 0};
+  void add(const sim::SimBatch& batch);  // the faults of the batch's last step
+  void to_json(nlohmann::json& out) const;  // faults_bad_input, faults_non_finite, ...
+};
+
+// Resets the slots whose episode of `episode_steps` control steps ends after control step
+// `step_index` (0-based); episodes are staggered over slots so resets spread over time.
+void reset_finished_episodes(const sim::SimModel& model, sim::SimBatch& batch, int64_t step_index,
+                             int episode_steps);
+
 struct SoakConfig {
   int slots = 256;
   int64_t slot_steps = 1000000;  // control steps summed over slots
@@ -35,6 +52,7 @@ struct SoakConfig {
   uint64_t seed = 1;
   double max_force = 83.3;
   double max_torque = 8.33;
+  int episode_steps = 75;        // reset each slot after this many control steps (0: never)
   sim::PhysicsOptions physics;
   std::string hand_path;
   bool progress = true;
