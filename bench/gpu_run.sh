@@ -16,7 +16,7 @@ echo "build: ${SECONDS}s"
 bidex="$build/apps/bidex"
 
 # throughput: batch vs plain mj_step loop at each thread and slot count, memory at 8192 slots
-"$bidex" bench sim --threads 1,2,4,8,16 --slots 256,2048,8192 --seconds 1 --rounds 3 \
+"$bidex" bench sim --threads 1,2,4,8,16 --slots 256,2048,8192 --seconds 1 --rounds 2 \
   --memory-slots 8192 --out "$out/bench_sim.json"
 echo "bench sim: ${SECONDS}s"
 # faults: one million random-action slot-steps on all cores
