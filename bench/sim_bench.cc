@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <fstream>
@@ -128,6 +129,8 @@ json machine_info() {
   std::string dirty = run_command(std::string("git -C '") + BIDEX_SOURCE_DIR +
                                   "' status --porcelain --untracked-files=no 2>/dev/null");
   j["commit"] = commit.empty() ? "unknown" : commit + (dirty.empty() ? "" : "-dirty");
+  // a tree built outside its git checkout (an exported snapshot) is told its commit
+  if (const char* c = std::getenv("BIDEX_COMMIT"); c && *c) j["commit"] = c;
   j["mujoco"] = mj_version();
   return j;
 }
