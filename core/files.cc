@@ -3,11 +3,11 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
-#include <filesystem>
 #include <fstream>
 #include <sstream>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "core/error.h"
@@ -22,14 +22,22 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
-void write_file_atomic(const std::string& path, std::string_view content) {
-  namespace fs = std::filesystem;
-  fs::path target(path);
-  if (target.has_parent_path()) {
-    std::error_code ec;
-    fs::create_directories(target.parent_path(), ec);
-    if (ec) throw IoError(path + ": cannot create folder: " + ec.message());
+namespace {
+
+// mkdir -p of the folder holding `path`. POSIX rather than std::filesystem: LibTorch from PyTorch
+// wheels exports its own copy of libstdc++'s filesystem functions, which crash when interposed.
+void make_parent_folders(const std::string& path) {
+  for (size_t pos = path.find('/', 1); pos != std::string::npos; pos = path.find('/', pos + 1)) {
+    std::string dir = path.substr(0, pos);
+    if (::mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST)
+      throw IoError(path + ": cannot create folder " + dir + ": " + std::strerror(errno));
   }
+}
+
+}  // namespace
+
+void write_file_atomic(const std::string& path, std::string_view content) {
+  make_parent_folders(path);
   std::string tmp = path + ".tmp." + std::to_string(::getpid());
 
   // write and flush the temp file, then rename it over the target
