@@ -34,13 +34,7 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
-  } catch (const bidex::ConfigError& e) {
-    std::fprintf(stderr, "bidex: error: %s\n", e.what());
-    return 2;
-  } catch (const bidex::ModelError& e) {
-    std::fprintf(stderr, "bidex: error: %s\n", e.what());
-    return 2;
-  } catch (const bidex::IoError& e) {
+  } catch (const bidex::Error& e) {  // bad config, model or file: the user can fix it
     std::fprintf(stderr, "bidex: error: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {

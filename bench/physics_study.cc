@@ -26,9 +26,6 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-double seconds_since(Clock::time_point t0) {
-  return std::chrono::duration<double>(Clock::now() - t0).count();
-}
 
 bool is_wrist(const std::string& joint) { return joint.rfind("WR", 0) == 0; }
 

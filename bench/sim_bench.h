@@ -2,6 +2,7 @@
 // worlds, measured in one run; and a soak run counting faults under random actions.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -32,6 +33,11 @@ struct SimBenchConfig {
 
 // Runs every (slots, threads) pair and returns the results as JSON.
 nlohmann::json run_sim_bench(const SimBenchConfig& cfg);
+
+// Seconds elapsed since `t0`.
+inline double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
 
 // Counts of the fault kinds of sim::FaultBits over many steps.
 struct FaultTally {

@@ -14,7 +14,7 @@ std::string compose(const std::string& file, const std::string& key, const std::
 
 ConfigError::ConfigError(std::string file, std::string key, std::string expected,
                          std::string actual)
-    : std::runtime_error(compose(file, key, expected, actual)),
+    : Error(compose(file, key, expected, actual)),
       file_(std::move(file)),
       key_(std::move(key)),
       expected_(std::move(expected)),

@@ -7,10 +7,17 @@
 
 namespace bidex {
 
+// Base of the errors a user can cause and fix (bad config, bad model, unreadable file): the
+// command line reports them as one line and exits with status 2.
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
 // A configuration or input-file error. The message always names the file, the key path inside
 // it, what was expected and what was found, e.g.
 //   configs/hands/shadow.yaml: bodies[3].joint.range_deg: expected min < max, got [90, 10]
-class ConfigError : public std::runtime_error {
+class ConfigError : public Error {
  public:
   ConfigError(std::string file, std::string key, std::string expected, std::string actual);
 
@@ -24,15 +31,15 @@ class ConfigError : public std::runtime_error {
 };
 
 // A model that MuJoCo refused to compile or load; carries MuJoCo's own message.
-class ModelError : public std::runtime_error {
+class ModelError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 // An I/O failure (missing file, unwritable folder), naming the path and the reason.
-class IoError : public std::runtime_error {
+class IoError : public Error {
  public:
-  using std::runtime_error::runtime_error;
+  using Error::Error;
 };
 
 }  // namespace bidex
