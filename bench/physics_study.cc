@@ -696,8 +696,8 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
   const int64_t steps = (soak.slot_steps + soak.slots - 1) / soak.slots;
   const auto cps = coupling_index(model, spec);
   const ContactClassifier classify(model);
-  FaultTally tally;
-  int maxuse_stack = 0, maxuse_con = 0, maxuse_efc = 0, max_iter = 0;
+  SoakTally tally;
+  int max_iter = 0;
   int64_t iter_sum = 0, iter_capped = 0, iter_n = 0;
   double max_pen[kKinds] = {}, max_coupling = 0, max_qvel = 0, secs = 0;
   std::vector<float> pens[kKinds], coups;
@@ -711,9 +711,6 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
     tally.add(batch);
     for (int s = 0; s < batch.nslot(); ++s) {
       const mjData* d = batch.data(s);
-      maxuse_stack = std::max(maxuse_stack, d->maxuse_stack);
-      maxuse_con = std::max(maxuse_con, d->maxuse_con);
-      maxuse_efc = std::max(maxuse_efc, d->maxuse_efc);
       if (batch.fault[s]) continue;
       // solver iterations of the last physics step of the control step
       max_iter = std::max(max_iter, d->solver_iter);
@@ -766,9 +763,6 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
           {"slot_steps_per_s", sps},
           {"physics_steps_per_s", sps * model.physics().substeps},
           {"faults", batch.total_faults()},
-          {"maxuse_stack", maxuse_stack},
-          {"maxuse_con", maxuse_con},
-          {"maxuse_efc", maxuse_efc},
           {"solver_iterations_mean", iter_n ? static_cast<double>(iter_sum) / iter_n : 0.0},
           {"solver_iterations_max", max_iter},
           {"solver_at_iteration_cap", iter_capped},

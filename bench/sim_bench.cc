@@ -84,19 +84,27 @@ struct Baseline {
 
 }  // namespace
 
-void FaultTally::add(const sim::SimBatch& batch) {
+void SoakTally::add(const sim::SimBatch& batch) {
   static_assert(sizeof(by_kind) / sizeof(by_kind[0]) == sim::kFaultKinds);
-  for (int s = 0; s < batch.nslot(); ++s)
+  for (int s = 0; s < batch.nslot(); ++s) {
     for (int k = 0; k < sim::kFaultKinds; ++k)
       if (batch.fault[s] & (1u << k)) ++by_kind[k];
+    const mjData* d = batch.data(s);
+    maxuse_stack = std::max(maxuse_stack, d->maxuse_stack);
+    maxuse_con = std::max(maxuse_con, d->maxuse_con);
+    maxuse_efc = std::max(maxuse_efc, d->maxuse_efc);
+  }
 }
 
-void FaultTally::to_json(json& out) const {
+void SoakTally::to_json(json& out) const {
   out["faults_bad_input"] = by_kind[0];
   out["faults_non_finite"] = by_kind[1];
   out["faults_exploded"] = by_kind[2];
   out["faults_mujoco_warning"] = by_kind[3];
   out["faults_mujoco_error"] = by_kind[4];
+  out["maxuse_stack"] = maxuse_stack;
+  out["maxuse_con"] = maxuse_con;
+  out["maxuse_efc"] = maxuse_efc;
 }
 
 void reset_finished_episodes(const sim::SimModel& model, sim::SimBatch& batch, int64_t step_index,
@@ -220,20 +228,13 @@ json run_soak(const SoakConfig& cfg) {
   sim::SimModel model = build_scene(cfg.hand_path, cfg.physics);
   sim::SimBatch batch(model, cfg.slots, {cfg.threads, cfg.seed});
   const int64_t steps = (cfg.slot_steps + cfg.slots - 1) / cfg.slots;
-  FaultTally tally;
-  int maxuse_stack = 0, maxuse_con = 0, maxuse_efc = 0;
+  SoakTally tally;
   Progress bar("soak", steps * cfg.slots, "slot-steps");
   auto t0 = Clock::now();
   for (int64_t i = 0; i < steps; ++i) {
     sim::random_inputs(model, batch, cfg.max_force, cfg.max_torque);
     sim::step(model, batch);
     tally.add(batch);
-    for (int s = 0; s < batch.nslot(); ++s) {
-      const mjData* d = batch.data(s);
-      maxuse_stack = std::max(maxuse_stack, d->maxuse_stack);
-      maxuse_con = std::max(maxuse_con, d->maxuse_con);
-      maxuse_efc = std::max(maxuse_efc, d->maxuse_efc);
-    }
     reset_finished_episodes(model, batch, i, cfg.episode_steps);
     if (cfg.progress) bar.update((i + 1) * cfg.slots);
   }
@@ -247,11 +248,8 @@ json run_soak(const SoakConfig& cfg) {
               {"slot_steps_per_s", steps * cfg.slots / secs},
               {"faults", batch.total_faults()},
               {"episode_steps", cfg.episode_steps},
-              {"maxuse_stack", maxuse_stack},
               {"nstack", model.mj()->nstack},
-              {"maxuse_con", maxuse_con},
               {"nconmax", model.mj()->nconmax},
-              {"maxuse_efc", maxuse_efc},
               {"njmax", model.mj()->njmax},
               {"timestep", p.timestep},
               {"substeps", p.substeps},

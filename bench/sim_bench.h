@@ -39,11 +39,13 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-// Counts of the fault kinds of sim::FaultBits over many steps.
-struct FaultTally {
+// What a soak watches over many steps: faults by kind (sim::FaultBits) and the largest MuJoCo
+// memory use of any slot (stack, contacts, constraint rows).
+struct SoakTally {
   int64_t by_kind[5] = {0, 0, 0, 0, 0};
-  void add(const sim::SimBatch& batch);  // the faults of the batch's last step
-  void to_json(nlohmann::json& out) const;  // faults_bad_input, faults_non_finite, ...
+  int maxuse_stack = 0, maxuse_con = 0, maxuse_efc = 0;
+  void add(const sim::SimBatch& batch);     // after each step
+  void to_json(nlohmann::json& out) const;  // faults_bad_input, ..., maxuse_stack, ...
 };
 
 // Resets the slots whose episode of `episode_steps` control steps ends after control step
