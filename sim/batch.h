@@ -114,7 +114,8 @@ class SimBatch {
 };
 
 // Steps every slot by one control step (`substeps` physics steps). `post` (optional) runs per
-// slot on the thread that stepped it, after outputs are written. Never throws for bad state:
+// slot on the thread that stepped it, after outputs are written; it runs inside the parallel
+// loop, so it must not throw (flag problems per slot instead, as the step does). Never throws for bad state:
 // faulty slots are flagged in `fault`, counted and reset.
 void step(const SimModel& model, SimBatch& batch,
           const std::function<void(int)>* post = nullptr);
