@@ -74,8 +74,9 @@ struct Baseline {
       mjData* d = data[s];
       const double* ctrl = b.ctrl.data() + static_cast<size_t>(s) * nu;
       const double* wrench = b.base_wrench.data() + static_cast<size_t>(s) * nw;
+      sim::apply_inputs(model, d, ctrl, wrench);
       for (int k = 0; k < substeps; ++k) {
-        sim::apply_inputs(model, d, ctrl, wrench);
+        if (k > 0) sim::update_base_wrench(model, d, wrench);
         mj_step(m, d);
       }
     }

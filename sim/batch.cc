@@ -118,7 +118,8 @@ size_t SimBatch::bytes() const {
   BIDEX_BATCH_INPUTS(BIDEX_X)
   BIDEX_BATCH_OUTPUTS(BIDEX_X)
 #undef BIDEX_X
-  b += rng_.size() * sizeof(std::mt19937_64) + nslot_ * (sizeof(double) + 3 * sizeof(int64_t));
+  b += rng_.size() * sizeof(std::mt19937_64) +
+       nslot_ * (sizeof(double) + sizeof(uint32_t) + 2 * sizeof(int64_t) + sizeof(int));
   return b;
 }
 
@@ -140,11 +141,8 @@ void write_outputs(const mjModel* m, const mjData* d, SimBatch& b, int s) {
 
 }  // namespace
 
-void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench) {
-  const mjModel* m = model.mj();
-  std::memcpy(d->ctrl, ctrl, sizeof(double) * m->nu);
+void update_base_wrench(const SimModel& model, mjData* d, const double* wrench) {
   const auto& comp = model.gravity_compensation();
-  std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
   const auto& hands = model.hands();
   for (size_t h = 0; h < hands.size(); ++h) {
     if (!hands[h].free_base) continue;
@@ -155,11 +153,19 @@ void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const do
     for (int k = 0; k < 3; ++k) r[k] = d->xpos[3 * b + k] - d->xipos[3 * b + k];
     mju_cross(moment, r, f);
     double* row = d->xfrc_applied + b * 6;
+    const double* base = comp.data() + b * 6;
     for (int k = 0; k < 3; ++k) {
-      row[k] += f[k];
-      row[3 + k] += f[3 + k] + moment[k];
+      row[k] = base[k] + f[k];
+      row[3 + k] = base[3 + k] + (f[3 + k] + moment[k]);
     }
   }
+}
+
+void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench) {
+  std::memcpy(d->ctrl, ctrl, sizeof(double) * model.mj()->nu);
+  const auto& comp = model.gravity_compensation();
+  std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
+  update_base_wrench(model, d, wrench);
 }
 
 void reset_slot(const SimModel& model, SimBatch& b, int s) {
@@ -225,8 +231,9 @@ void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* po
       // the new state at the end (same cost as mj_step)
       const double t0 = d->time;
       try {
+        apply_inputs(model, d, ctrl, wrench);
         for (int k = 0; k < substeps; ++k) {
-          apply_inputs(model, d, ctrl, wrench);
+          if (k > 0) update_base_wrench(model, d, wrench);  // the pivot moves with the base
           mj_step2(m, d);
           mj_step1(m, d);
         }

@@ -135,6 +135,9 @@ void sync_slot(const SimModel& model, SimBatch& batch, int slot);
 // acts at the base's pivot (the mount origin, where the ball joint turns), so a push translates
 // the hand without turning it. Used by `step`; public so that benchmarks drive worlds the same way.
 void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench);
+// Rewrites only the free bases' rows of the applied forces for the current pose (the pivot's
+// offset from the centre of mass turns with the base): between the substeps of one control step.
+void update_base_wrench(const SimModel& model, mjData* d, const double* wrench);
 
 // Writes uniformly random inputs into every slot's rows from its own stream: actuator targets
 // over their control ranges, base forces/torques up to the given magnitudes.
