@@ -2,7 +2,6 @@
 #include <cstdio>
 
 #include <CLI/CLI.hpp>
-#include <mujoco/mujoco.h>
 #include <torch/torch.h>
 
 #include "apps/commands.h"
@@ -44,7 +43,7 @@ void add_sim_command(CLI::App& app) {
     std::printf("two-hand scene: %d slots, %d threads, dt %.4g s x %d substeps, %.1f MB, "
                 "tensors on %s\n",
                 batch.nslot(), batch.threads(), physics.timestep, physics.substeps,
-                batch.bytes() / 1e6, sim::describe_device(device).c_str());
+                batch.bytes() / 1e6, device.str().c_str());
 
     Progress bar("sim", static_cast<int64_t>(o->steps) * o->slots, "slot-steps");
     double sim_seconds = 0, copy_seconds = 0, height_sum = 0;

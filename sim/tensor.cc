@@ -11,10 +11,6 @@ c10::Device default_device() {
   return c10::Device(c10::DeviceType::CPU);
 }
 
-std::string describe_device(const c10::Device& device) {
-  return device.str();
-}
-
 at::Tensor to_tensor(const std::vector<double>& field, int nslot, int width,
                      const c10::Device& device) {
   if (field.size() != static_cast<size_t>(nslot) * width)

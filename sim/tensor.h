@@ -2,7 +2,6 @@
 // when LibTorch was built with CUDA. Include only where tensors are needed (it pulls in ATen).
 #pragma once
 
-#include <string>
 #include <vector>
 
 #include <ATen/core/Tensor.h>
@@ -12,8 +11,6 @@ namespace bidex::sim {
 
 // CUDA:0 when this LibTorch has CUDA and a device is visible, else the CPU.
 c10::Device default_device();
-// "cuda:0 (NVIDIA H100 80GB HBM3)" or "cpu", for logs.
-std::string describe_device(const c10::Device& device);
 
 // Copies a (nslot, width) batch array into a float32 tensor on `device`: one host-side
 // conversion, one transfer.

@@ -45,7 +45,7 @@ TEST_CASE("tensor conversions check shapes", "[sim][tensor]") {
 
 TEST_CASE("the default device is described", "[sim][tensor]") {
   c10::Device d = bidex::sim::default_device();
-  std::string s = bidex::sim::describe_device(d);
+  std::string s = d.str();
   if (d.is_cpu()) CHECK(s == "cpu");
   else CHECK(s.rfind("cuda", 0) == 0);
 }
