@@ -152,134 +152,77 @@ TEST_CASE("bad hand YAML is a ConfigError naming file, key path, expected and ac
   const std::string palm_mass = "    pos: [0, 0, 0.034]\n    mass: 0.3\n";
   const std::string ff4 = "{name: FF4, axis: [0, 1, 0], range_deg: [-20, 20],";
 
-  SECTION("an unknown top-level key") {
-    EditedSpec f(replace_once(base, "name: shadow\n", "name: shadow\ncolour: red\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "colour", "one of the keys {", "unknown key 'colour'");
-    CHECK(e.file() == f.path + ":" + std::to_string(line_of(f.text, "colour: red")));
-  }
-  SECTION("an unknown key in a body") {
-    EditedSpec f(replace_once(base, palm_mass, palm_mass + "    colour: red\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[2].colour", "mass", "unknown key 'colour'");
-  }
-  SECTION("an unknown key in a joint") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, stiffness: 3, axis: [0, 1, 0], "
-                                         "range_deg: [-20, 20],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.stiffness", "range_deg",
-                       "unknown key 'stiffness'");
-  }
-  SECTION("a body without mass") {
-    EditedSpec f(replace_once(base, palm_mass, "    pos: [0, 0, 0.034]\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[2].mass", "required", "none");
-  }
-  SECTION("a joint without range_deg") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, axis: [0, 1, 0],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.range_deg", "required", "none");
-  }
-  SECTION("an impossible range, min > max") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [90, 10],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.range_deg", "min < max", "[90, 10]");
-    CHECK(e.file() == f.path + ":" + std::to_string(line_of(f.text, "name: FF4")));
-  }
-  SECTION("an empty range, min == max") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [10, 10],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.range_deg", "min < max", "[10, 10]");
-  }
-  SECTION("a range of three numbers") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [1, 2, 3],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.range_deg", "a list of 2 numbers",
-                       "[1, 2, 3]");
-  }
-  SECTION("a coupling to an unknown joint") {
-    EditedSpec f(replace_once(base, "{joint: FF1, follows: FF2, ratio: 1.0}",
-                              "{joint: FF1, follows: FF9, ratio: 1.0}"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "couplings[0].follows", "a joint of this hand", "'FF9'");
-  }
-  SECTION("a coupling of an unknown joint") {
-    EditedSpec f(replace_once(base, "{joint: MF1, follows: MF2, ratio: 1.0}",
-                              "{joint: XX1, follows: MF2, ratio: 1.0}"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "couplings[1].joint", "a joint of this hand", "'XX1'");
-  }
-  SECTION("a coupling driving an actuated joint") {
-    EditedSpec f(replace_once(base, "{joint: FF1, follows: FF2, ratio: 1.0}",
-                              "{joint: FF3, follows: FF2, ratio: 1.0}"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "couplings[0].joint", "without an actuator", "'FF3'");
-  }
-  SECTION("a coupling ratio above 1 (distal beyond middle)") {
-    EditedSpec f(replace_once(base, "{joint: FF1, follows: FF2, ratio: 1.0}",
-                              "{joint: FF1, follows: FF2, ratio: 1.5}"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "couplings[0].ratio", "(0, 1]", "1.5");
-  }
-  SECTION("a passive joint with neither actuator nor coupling") {
-    EditedSpec f(replace_once(base, "  - {joint: RF1, follows: RF2, ratio: 1.0}\n", ""));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies", "'RF1'", "neither");
-  }
-  SECTION("a string where a number is expected") {
-    EditedSpec f(replace_once(base, palm_mass, "    pos: [0, 0, 0.034]\n    mass: heavy\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[2].mass", "a number", "heavy");
-    CHECK(e.file() == f.path + ":" + std::to_string(line_of(f.text, "mass: heavy")));
-  }
-  SECTION("a string inside a range") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [-20, twenty],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.range_deg[1]", "a number", "twenty");
-  }
-  SECTION("a negative mass") {
-    EditedSpec f(replace_once(base, palm_mass, "    pos: [0, 0, 0.034]\n    mass: -0.3\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[2].mass", "> 0", "-0.3");
-  }
-  SECTION("a zero force limit") {
-    EditedSpec f(replace_once(base, "actuator: {kp: 5.0, force_limit: 4.78}",
-                              "actuator: {kp: 5.0, force_limit: 0}"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[2].joint.actuator.force_limit", "> 0", "0");
-  }
-  SECTION("a zero joint axis") {
-    EditedSpec f(replace_once(base, ff4, "{name: FF4, axis: [0, 0, 0], range_deg: [-20, 20],"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].joint.axis", "non-zero axis", "[0, 0, 0]");
-  }
-  SECTION("a parent that is not listed earlier") {
-    EditedSpec f(replace_once(base, "    parent: palm\n    pos: [0.033, 0, 0.095]\n",
-                              "    parent: ffmiddle\n    pos: [0.033, 0, 0.095]\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].parent", "a body listed earlier", "'ffmiddle'");
-  }
-  SECTION("a repeated joint name") {
-    EditedSpec f(replace_once(base, "{name: MF4, axis", "{name: FF4, axis"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[7].joint.name", "not used before", "'FF4'");
-  }
-  SECTION("an unknown side") {
-    EditedSpec f(replace_once(base, "side: right\n", "side: middle\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "side", "right or left", "'middle'");
-  }
-  SECTION("an unknown geom type") {
-    EditedSpec f(replace_once(base, "{name: ffknuckle, type: sphere,",
-                              "{name: ffknuckle, type: cylinder,"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "bodies[3].geoms[0].type", "capsule, box, sphere",
-                       "'cylinder'");
-  }
-  SECTION("a self-contact with an unknown body") {
-    EditedSpec f(replace_once(base, "  - [palm, thmiddle]\n", "  - [palm, thumbnail]\n"));
-    auto e = config_error([&] { load_hand_spec(f.path); });
-    check_config_error(e, f.path, "self_contacts[11]", "bodies of this hand", "'thumbnail'");
+  // each case: an edit of shadow.yaml (from -> to) and the key path, expected and actual parts
+  // of the error; `line`: text whose line the error must name ("" when not checked)
+  struct BadEdit {
+    const char* what;
+    std::string from, to, key, expected, actual, line;
+  };
+  const std::vector<BadEdit> cases = {
+      {"an unknown top-level key", "name: shadow\n", "name: shadow\ncolour: red\n", "colour",
+       "one of the keys {", "unknown key 'colour'", "colour: red"},
+      {"an unknown key in a body", palm_mass, palm_mass + "    colour: red\n", "bodies[2].colour",
+       "mass", "unknown key 'colour'", ""},
+      {"an unknown key in a joint", ff4,
+       "{name: FF4, stiffness: 3, axis: [0, 1, 0], "
+       "range_deg: [-20, 20],",
+       "bodies[3].joint.stiffness", "range_deg", "unknown key 'stiffness'", ""},
+      {"a body without mass", palm_mass, "    pos: [0, 0, 0.034]\n", "bodies[2].mass", "required",
+       "none", ""},
+      {"a joint without range_deg", ff4, "{name: FF4, axis: [0, 1, 0],",
+       "bodies[3].joint.range_deg", "required", "none", ""},
+      {"an impossible range, min > max", ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [90, 10],",
+       "bodies[3].joint.range_deg", "min < max", "[90, 10]", "name: FF4"},
+      {"an empty range, min == max", ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [10, 10],",
+       "bodies[3].joint.range_deg", "min < max", "[10, 10]", ""},
+      {"a range of three numbers", ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [1, 2, 3],",
+       "bodies[3].joint.range_deg", "a list of 2 numbers", "[1, 2, 3]", ""},
+      {"a coupling to an unknown joint", "{joint: FF1, follows: FF2, ratio: 1.0}",
+       "{joint: FF1, follows: FF9, ratio: 1.0}", "couplings[0].follows", "a joint of this hand",
+       "'FF9'", ""},
+      {"a coupling of an unknown joint", "{joint: MF1, follows: MF2, ratio: 1.0}",
+       "{joint: XX1, follows: MF2, ratio: 1.0}", "couplings[1].joint", "a joint of this hand",
+       "'XX1'", ""},
+      {"a coupling driving an actuated joint", "{joint: FF1, follows: FF2, ratio: 1.0}",
+       "{joint: FF3, follows: FF2, ratio: 1.0}", "couplings[0].joint", "without an actuator",
+       "'FF3'", ""},
+      {"a coupling ratio above 1 (distal beyond middle)", "{joint: FF1, follows: FF2, ratio: 1.0}",
+       "{joint: FF1, follows: FF2, ratio: 1.5}", "couplings[0].ratio", "(0, 1]", "1.5", ""},
+      {"a passive joint with neither actuator nor coupling",
+       "  - {joint: RF1, follows: RF2, ratio: 1.0}\n", "", "bodies", "'RF1'", "neither", ""},
+      {"a string where a number is expected", palm_mass,
+       "    pos: [0, 0, 0.034]\n    mass: heavy\n", "bodies[2].mass", "a number", "heavy",
+       "mass: heavy"},
+      {"a string inside a range", ff4, "{name: FF4, axis: [0, 1, 0], range_deg: [-20, twenty],",
+       "bodies[3].joint.range_deg[1]", "a number", "twenty", ""},
+      {"a negative mass", palm_mass, "    pos: [0, 0, 0.034]\n    mass: -0.3\n", "bodies[2].mass",
+       "> 0", "-0.3", ""},
+      {"a zero force limit", "actuator: {kp: 5.0, force_limit: 4.78}",
+       "actuator: {kp: 5.0, force_limit: 0}", "bodies[2].joint.actuator.force_limit", "> 0", "0",
+       ""},
+      {"a zero joint axis", ff4, "{name: FF4, axis: [0, 0, 0], range_deg: [-20, 20],",
+       "bodies[3].joint.axis", "non-zero axis", "[0, 0, 0]", ""},
+      {"a parent that is not listed earlier", "    parent: palm\n    pos: [0.033, 0, 0.095]\n",
+       "    parent: ffmiddle\n    pos: [0.033, 0, 0.095]\n", "bodies[3].parent",
+       "a body listed earlier", "'ffmiddle'", ""},
+      {"a repeated joint name", "{name: MF4, axis", "{name: FF4, axis", "bodies[7].joint.name",
+       "not used before", "'FF4'", ""},
+      {"an unknown side", "side: right\n", "side: middle\n", "side", "right or left", "'middle'",
+       ""},
+      {"an unknown geom type", "{name: ffknuckle, type: sphere,",
+       "{name: ffknuckle, type: cylinder,", "bodies[3].geoms[0].type", "capsule, box, sphere",
+       "'cylinder'", ""},
+      {"a self-contact with an unknown body", "  - [palm, thmiddle]\n", "  - [palm, thumbnail]\n",
+       "self_contacts[11]", "bodies of this hand", "'thumbnail'", ""},
+  };
+  for (const BadEdit& c : cases) {
+    DYNAMIC_SECTION(c.what) {
+      EditedSpec f(replace_once(base, c.from, c.to));
+      auto e = config_error([&] { load_hand_spec(f.path); });
+      check_config_error(e, f.path, c.key, c.expected, c.actual);
+      if (!c.line.empty())
+        CHECK(e.file() == f.path + ":" + std::to_string(line_of(f.text, c.line)));
+    }
   }
   SECTION("not YAML at all") {
     EditedSpec f(replace_once(base, "name: shadow\n", "name: [shadow\n"));
