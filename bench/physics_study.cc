@@ -70,13 +70,6 @@ std::vector<CouplingIdx> coupling_index(const sim::SimModel& model, const sim::H
   return out;
 }
 
-int warning_total(const mjData* d) {
-  int n = 0;
-  for (int i = 0; i < mjNWARNING; ++i)
-    if (i != mjWARN_VGEOMFULL) n += d->warning[i].number;
-  return n;
-}
-
 // One slot of a batch (initial state from sim::reset_slot), stepped at the physics rate with the
 // same applied forces as sim::step: gravity compensation plus each free base's wrench.
 struct World {
@@ -434,7 +427,7 @@ json measure_rest(const sim::SimModel& model) {
     out["egg_on_hand"] = rest_on_hand;
     out["max_penetration_squeeze_m"] = pen_squeeze;
     out["egg_on_hand_squeeze"] = egg_contacts(m, w.d, egg_geom, right_body).on_hand;
-    out["warnings"] = warning_total(w.d);
+    out["warnings"] = sim::warning_total(w.d);
     out["finite"] = w.finite();
   }
 
@@ -462,7 +455,7 @@ json measure_rest(const sim::SimModel& model) {
                    {"max_penetration_m", pen},
                    {"max_rebound_m", bounce},
                    {"egg_on_hand_after_1_5s", egg_contacts(m, w.d, egg_geom, right_body).on_hand},
-                   {"warnings", warning_total(w.d)},
+                   {"warnings", sim::warning_total(w.d)},
                    {"finite", w.finite()}};
   }
   return out;
@@ -504,7 +497,7 @@ json measure_coupling(const sim::SimModel& model, const sim::HandSpec& spec) {
   return {{"max_error_rad", worst},
           {"max_error_rad_by_hand", per_hand},
           {"min_middle_angle_end_rad_by_hand", angle},
-          {"warnings", warning_total(w.d)},
+          {"warnings", sim::warning_total(w.d)},
           {"finite", w.finite()}};
 }
 
@@ -541,7 +534,7 @@ json measure_hang(const sim::SimModel& model, double force, double torque) {
     }
     return Run{dist3(l0, vec3(w.d->qpos + ql)), quat_angle(w.d->qpos + ql + 3),
                dist3(r0, vec3(w.d->qpos + qr)), quat_angle(w.d->qpos + qr + 3), speed, spin,
-               warning_total(w.d)};
+               sim::warning_total(w.d)};
   };
   Run still = run({0, 0, 0, 0, 0, 0});
   Run push = run({force, 0, 0, 0, 0, 0});
@@ -594,7 +587,7 @@ json measure_step(const sim::SimModel& model, double step_rad) {
                   {"overshoot", std::max(0.0, (peak - target) / size)},
                   {"settling_time_2pct_s", settle},
                   {"error_after_1s_rad", std::abs(w.d->qpos[q] - target)},
-                  {"warnings", warning_total(w.d)}};
+                  {"warnings", sim::warning_total(w.d)}};
   }
   return out;
 }

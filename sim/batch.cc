@@ -34,13 +34,6 @@ void install_handlers() {
   });
 }
 
-int warning_total(const mjData* d) {
-  int n = 0;
-  for (int i = 0; i < mjNWARNING; ++i)
-    if (i != mjWARN_VGEOMFULL) n += d->warning[i].number;
-  return n;
-}
-
 bool all_finite(const double* x, int n) {
   for (int i = 0; i < n; ++i)
     if (!std::isfinite(x[i])) return false;
@@ -140,6 +133,13 @@ void write_outputs(const mjModel* m, const mjData* d, SimBatch& b, int s) {
 }
 
 }  // namespace
+
+int warning_total(const mjData* d) {
+  int n = 0;
+  for (int i = 0; i < mjNWARNING; ++i)
+    if (i != mjWARN_VGEOMFULL) n += d->warning[i].number;
+  return n;
+}
 
 void update_base_wrench(const SimModel& model, mjData* d, const double* wrench) {
   const auto& comp = model.gravity_compensation();

@@ -139,6 +139,10 @@ void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const do
 // offset from the centre of mass turns with the base): between the substeps of one control step.
 void update_base_wrench(const SimModel& model, mjData* d, const double* wrench);
 
+// MuJoCo warnings a slot's data has counted (all kinds but the renderer's visual-geom overflow);
+// a change across a step is a kFaultMujocoWarn.
+int warning_total(const mjData* d);
+
 // Writes uniformly random inputs into every slot's rows from its own stream: actuator targets
 // over their control ranges, base forces/torques up to the given magnitudes.
 void random_inputs(const SimModel& model, SimBatch& batch, double max_force, double max_torque);
