@@ -119,16 +119,11 @@ size_t SimBatch::bytes() const {
 namespace {
 
 // copies a slot's MuJoCo state into its rows of the contiguous output arrays
-void write_outputs(const mjModel* m, const mjData* d, SimBatch& b, int s) {
+void write_outputs(const mjData* d, SimBatch& b, int s) {
   SlotView v = b.slot(s);
-  std::memcpy(v.qpos, d->qpos, sizeof(double) * m->nq);
-  std::memcpy(v.qvel, d->qvel, sizeof(double) * m->nv);
-  std::memcpy(v.qfrc_actuator, d->qfrc_actuator, sizeof(double) * m->nv);
-  std::memcpy(v.qfrc_constraint, d->qfrc_constraint, sizeof(double) * m->nv);
-  std::memcpy(v.sensordata, d->sensordata, sizeof(double) * m->nsensordata);
-  std::memcpy(v.xpos, d->xpos, sizeof(double) * m->nbody * 3);
-  std::memcpy(v.xquat, d->xquat, sizeof(double) * m->nbody * 4);
-  std::memcpy(v.cvel, d->cvel, sizeof(double) * m->nbody * 6);
+#define BIDEX_X(name, width, doc) std::memcpy(v.name, d->name, sizeof(double) * b.name##_width);
+  BIDEX_BATCH_OUTPUTS(BIDEX_X)
+#undef BIDEX_X
   b.time[s] = d->time;
 }
 
@@ -195,7 +190,7 @@ void reset_slot(const SimModel& model, SimBatch& b, int s) {
                     static_cast<uint32_t>(b.episode[s] >> 32)};
   b.rng_[s].seed(seq);
   b.warnings_seen_[s] = warning_total(d);
-  write_outputs(m, d, b, s);
+  write_outputs(d, b, s);
 }
 
 void reset_all(const SimModel& model, SimBatch& b) {
@@ -207,7 +202,7 @@ void sync_slot(const SimModel& model, SimBatch& b, int s) {
   mjData* d = b.data_[s];
   mj_forward(model.mj(), d);
   b.warnings_seen_[s] = warning_total(d);
-  write_outputs(model.mj(), d, b, s);
+  write_outputs(d, b, s);
 }
 
 void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* post) {
@@ -259,7 +254,7 @@ void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* po
       b.fault_count[s] += 1;
       reset_slot(model, b, s);
     } else {
-      write_outputs(m, d, b, s);
+      write_outputs(d, b, s);
     }
 
     // 5. per-slot work of the caller

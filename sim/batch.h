@@ -29,6 +29,7 @@ namespace bidex::sim {
   X(ctrl, m.nu(), "input: actuator targets (rad), written by the caller / apply_actions") \
   X(base_wrench, m.nwrench(), "input: world-frame force (N) and torque (N m) per hand base")
 
+// Each output is named after the mjData field it copies (the step copies them by that name).
 #define BIDEX_BATCH_OUTPUTS(X)                                                              \
   X(qpos, m.nq(), "output: generalized positions, written by step")                         \
   X(qvel, m.nv(), "output: generalized velocities, written by step")                        \
