@@ -205,7 +205,8 @@ void sync_slot(const SimModel& model, SimBatch& b, int s) {
   write_outputs(d, b, s);
 }
 
-void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* post) {
+void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* post,
+          const std::function<void(int)>* pre) {
   const mjModel* m = model.mj();
   const int substeps = model.physics().substeps;
   const double max_speed = model.physics().max_speed;
@@ -213,6 +214,7 @@ void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* po
 
 #pragma omp parallel for schedule(static) num_threads(b.threads())
   for (int s = 0; s < b.nslot(); ++s) {
+    if (pre) (*pre)(s);
     mjData* d = b.data_[s];
     const double* ctrl = b.ctrl.data() + static_cast<size_t>(s) * nu;
     const double* wrench = b.base_wrench.data() + static_cast<size_t>(s) * nw;

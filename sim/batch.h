@@ -7,7 +7,8 @@
 //   2. physics: `substeps` MuJoCo steps
 //   3. faults: non-finite or exploding state, a MuJoCo warning or error flags and resets the slot
 //   4. outputs: state rows (qpos, qvel, ...) are copied out
-//   5. the caller's per-slot hook (tasks: rewards, resets, observations) runs on the same core
+//   0. the caller's `pre` hook (tasks: actions -> ctrl and base_wrench rows)
+//   5. the caller's `post` hook (tasks: rewards, resets, observations) runs on the same core
 #pragma once
 
 #include <cstdint>
@@ -38,7 +39,8 @@ namespace bidex::sim {
   X(sensordata, m.nsensordata(), "output: sensor values (fingertip force/torque), by step") \
   X(xpos, m.nbody() * 3, "output: body positions (world), written by step")                 \
   X(xquat, m.nbody() * 4, "output: body orientations (w, x, y, z), written by step")        \
-  X(cvel, m.nbody() * 6, "output: body com-based velocities (rot, lin), written by step")
+  X(cvel, m.nbody() * 6, "output: body com-based velocities (rot, lin), written by step")    \
+  X(subtree_com, m.nbody() * 3, "output: centre of mass of each body's subtree (cvel's origin)")
 
 // Why a slot was reset after a step (bits of SimBatch::fault).
 enum FaultBits : uint32_t {
@@ -101,7 +103,8 @@ class SimBatch {
   size_t bytes() const;
 
  private:
-  friend void step(const SimModel&, SimBatch&, const std::function<void(int)>*);
+  friend void step(const SimModel&, SimBatch&, const std::function<void(int)>*,
+                   const std::function<void(int)>*);
   friend void reset_slot(const SimModel&, SimBatch&, int);
   friend void sync_slot(const SimModel&, SimBatch&, int);
 
@@ -114,12 +117,14 @@ class SimBatch {
   std::vector<int> warnings_seen_;  // (nslot) MuJoCo warning total before the step
 };
 
-// Steps every slot by one control step (`substeps` physics steps). `post` (optional) runs per
-// slot on the thread that stepped it, after outputs are written; it runs inside the parallel
-// loop, so it must not throw (flag problems per slot instead, as the step does). Never throws for bad state:
-// faulty slots are flagged in `fault`, counted and reset.
+// Steps every slot by one control step (`substeps` physics steps). `pre` (optional) runs per slot
+// before its inputs are read (tasks write ctrl and base_wrench rows from actions there); `post`
+// (optional) runs per slot after outputs are written. Both run on the thread that steps the slot,
+// inside the parallel loop, so they must not throw (flag problems per slot instead, as the step
+// does). Never throws for bad state: faulty slots are flagged in `fault`, counted and reset.
 void step(const SimModel& model, SimBatch& batch,
-          const std::function<void(int)>* post = nullptr);
+          const std::function<void(int)>* post = nullptr,
+          const std::function<void(int)>* pre = nullptr);
 
 // Puts one slot back to the scene's initial state (hands at their placements, joints at 0 inside
 // their ranges, targets at the current joints, zero velocity), advances its episode counter,

@@ -41,6 +41,7 @@ struct ObjectIndex {
   int body = -1;
   int qpos_adr = -1;  // free joint: 7 values (pos, quat), -1 when fixed
   int dof_adr = -1;   // free joint: 6 values
+  int mocap = -1;     // goal markers: index into mjData::mocap_pos (3 per) and mocap_quat (4 per)
 };
 
 class SimModel {

@@ -232,16 +232,20 @@ std::string SceneBuilder::mjcf() const {
 
   // objects
   for (auto& o : objects_) {
+    if (o.marker && o.shape == ObjectSpec::Shape::kMjcf)
+      throw ModelError("object '" + o.name + "': a goal marker must be a primitive shape, not MJCF");
     x << "    <body name=\"" << o.name << "\" pos=\"" << nums(o.pose.pos) << "\" quat=\""
-      << nums(o.pose.quat) << "\">\n";
-    if (o.free) {
+      << nums(o.pose.quat) << "\"" << (o.marker ? " mocap=\"true\"" : "") << ">\n";
+    if (o.free && !o.marker) {
       x << "      <joint name=\"" << o.name << "\" type=\"free\" damping=\"" << num(o.damping)
         << "\"/>\n";
     }
     std::string common = " mass=\"" + num(o.mass) + "\" condim=\"" + std::to_string(o.condim) +
                          "\" friction=\"" + num(o.friction) + " 0.005 0.0001\" rgba=\"" +
-                         nums(o.rgba) + "\" contype=\"" + std::to_string(kWorldBit) +
-                         "\" conaffinity=\"" + std::to_string(kWorldBit | 2 | 4) + "\"";
+                         nums(o.rgba) + "\" contype=\"" +
+                         std::to_string(o.marker ? 0 : kWorldBit) + "\" conaffinity=\"" +
+                         std::to_string(o.marker ? 0 : (kWorldBit | 2 | 4)) + "\"" +
+                         (o.marker ? " group=\"1\"" : "");
     switch (o.shape) {
       case ObjectSpec::Shape::kBox:
         x << "      <geom name=\"" << o.name << "\" type=\"box\" size=\"" << nums(o.size) << "\""
@@ -380,7 +384,9 @@ SimModel SceneBuilder::build(const std::string& name) const {
     ObjectIndex oi;
     oi.name = o.name;
     oi.body = id(mjOBJ_BODY, o.name);
-    if (o.free) {
+    if (o.marker) {
+      oi.mocap = m->body_mocapid[oi.body];
+    } else if (o.free) {
       int j = id(mjOBJ_JOINT, o.name);
       oi.qpos_adr = m->jnt_qposadr[j];
       oi.dof_adr = m->jnt_dofadr[j];

@@ -37,6 +37,9 @@ struct ObjectSpec {
   double mass = 0.1;  // kg (ignored for kMjcf, whose geoms carry their own)
   Pose pose;
   bool free = true;           // a free joint; false welds it to the world
+  // A goal marker: a mocap body that is only drawn (no joint, no contacts); tasks move it through
+  // mjData::mocap_pos/mocap_quat. Primitive shapes only.
+  bool marker = false;
   double damping = 0.0;       // free-joint damping
   double friction = 1.0;      // sliding friction
   int condim = 4;             // 3: sliding, 4: + torsional friction
