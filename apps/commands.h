@@ -15,6 +15,8 @@ void set_command_line(int argc, char** argv);
 
 void add_model_command(CLI::App& app);  // bidex model: write standalone MJCF of the hands
 void add_sim_command(CLI::App& app);    // bidex sim: step the two-hand scene, random actions
-void add_bench_command(CLI::App& app);  // bidex bench sim|soak|physics
+void add_bench_command(CLI::App& app);  // bidex bench sim|soak|physics|task
+void add_info_command(CLI::App& app);   // bidex info: a task's spec and named slices
+void add_play_command(CLI::App& app);   // bidex play: run a task with random/zero actions
 
 }  // namespace bidex::apps

@@ -30,6 +30,8 @@ int main(int argc, char** argv) {
   bidex::apps::add_model_command(app);
   bidex::apps::add_sim_command(app);
   bidex::apps::add_bench_command(app);
+  bidex::apps::add_info_command(app);
+  bidex::apps::add_play_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

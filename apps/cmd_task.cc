@@ -1,0 +1,206 @@
+// bidex info / play: a task's spec with every named slice, and a policy-free run of a task that
+// reports each reward term.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <random>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "apps/commands.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "core/progress.h"
+#include "tasks/env.h"
+#include "tasks/math.h"
+#include "tasks/registry.h"
+
+namespace bidex::apps {
+
+using nlohmann::json;
+
+namespace {
+
+std::string task_ids() {
+  std::string s;
+  for (auto& e : tasks::task_registry()) s += (s.empty() ? "" : ", ") + e.spec().id;
+  return s;
+}
+
+json layout_json(const tasks::Layout& l) {
+  json out = json::array();
+  for (auto& s : l.slices())
+    out.push_back({{"name", s.name}, {"start", s.start}, {"size", s.size}, {"end", s.end()},
+                   {"goal", s.goal}, {"doc", s.doc}});
+  return out;
+}
+
+void print_layout(const char* title, const tasks::Layout& l) {
+  std::printf("%s (%d):\n", title, l.dim());
+  for (auto& s : l.slices())
+    std::printf("  [%3d, %3d)  %-26s %s%s\n", s.start, s.end(), s.name.c_str(),
+                s.goal ? "(goal) " : "", s.doc.c_str());
+}
+
+}  // namespace
+
+json task_spec_json(const tasks::TaskSpec& sp) {
+  json agents = json::array();
+  for (auto& a : sp.agents) agents.push_back({{"name", a.name}, {"obs", a.obs}, {"act", a.act}});
+  json terms = json::array();
+  for (auto& t : sp.reward_terms) terms.push_back({{"name", t.name}, {"doc", t.doc}});
+  return {{"id", sp.id},
+          {"version", sp.version},
+          {"versioned_id", sp.versioned_id()},
+          {"paper_name", sp.paper_name},
+          {"original_name", sp.original_name},
+          {"age", {{"min_months", sp.age.min_months},
+                   {"max_months", sp.age.max_months},
+                   {"text", sp.age.text},
+                   {"from_commented_row", sp.age.from_commented_row}}},
+          {"difficulty", tasks::difficulty_name(sp.difficulty)},
+          {"skill", sp.skill},
+          {"episode_length", sp.episode_length},
+          {"base", sp.free_base ? "free" : "fixed"},
+          {"obs_dim", sp.obs.dim()},
+          {"act_dim", sp.act.dim()},
+          {"obs", layout_json(sp.obs)},
+          {"act", layout_json(sp.act)},
+          {"agents", agents},
+          {"reward_terms", terms},
+          {"default_config", tasks::default_task_config(sp.id)}};
+}
+
+void add_info_command(CLI::App& app) {
+  struct Opts {
+    std::string task;
+    bool json = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("info", "Print a task's spec: identity, human age, difficulty, "
+                                         "episode length, every named observation and action "
+                                         "slice, agents and reward terms");
+  cmd->add_option("--task", o->task, "Task id (" + task_ids() + ")")->required();
+  cmd->add_flag("--json", o->json, "Print JSON instead of text");
+  cmd->footer("Example:\n  bidex info --task catch_underarm\n  bidex info --task hand_over --json");
+  cmd->callback([o] {
+    const tasks::TaskSpec& sp = tasks::find_task(o->task).spec();
+    if (o->json) {
+      std::printf("%s\n", task_spec_json(sp).dump(2).c_str());
+      return;
+    }
+    std::printf("%s  %s (original: %s)\n", sp.versioned_id().c_str(), sp.paper_name.c_str(),
+                sp.original_name.c_str());
+    std::printf("  human age: %s%s   difficulty: %s\n",
+                sp.age.text == "adult" ? "adult" : (sp.age.text + " months").c_str(),
+                sp.age.from_commented_row ? " (a row the paper comments out)" : "",
+                tasks::difficulty_name(sp.difficulty));
+    std::printf("  skill: %s\n", sp.skill.c_str());
+    std::printf("  episode: %d control steps (%.2f s at 60 Hz); bases: %s\n", sp.episode_length,
+                sp.episode_length / 60.0, sp.free_base ? "free (6-DoF, pushed by forces)" : "fixed");
+    std::printf("  default config: %s\n\n", tasks::default_task_config(sp.id).c_str());
+    print_layout("observation", sp.obs);
+    std::printf("\n");
+    print_layout("action", sp.act);
+    std::printf("\nagents (multi-agent split):\n");
+    for (auto& a : sp.agents) {
+      int od = 0, ad = 0;
+      for (auto& n : a.obs) od += sp.obs.at(n).size;
+      for (auto& n : a.act) ad += sp.act.at(n).size;
+      std::printf("  %-6s observes %d values, acts on %d\n", a.name.c_str(), od, ad);
+    }
+    std::printf("\nreward = sum of terms:\n");
+    for (auto& t : sp.reward_terms) std::printf("  %-16s %s\n", t.name.c_str(), t.doc.c_str());
+  });
+}
+
+void add_play_command(CLI::App& app) {
+  struct Opts {
+    std::string task, policy = "random", config, json_out;
+    int steps = 300, slots = 16, threads = 0;
+    uint64_t seed = 1;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand(
+      "play", "Run a task without learning (random or zero actions) and print statistics of "
+              "each reward term, episode returns, success rate and faults");
+  cmd->add_option("--task", o->task, "Task id (" + task_ids() + ")")->required();
+  cmd->add_option("--policy", o->policy, "random (uniform in [-1, 1]) or zero")
+      ->check(CLI::IsMember({"random", "zero"}))->capture_default_str();
+  cmd->add_option("--steps", o->steps, "Control steps per slot")->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--slots", o->slots, "Parallel worlds")->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--threads", o->threads, "Threads (0: all cores)")->capture_default_str();
+  cmd->add_option("--seed", o->seed, "Seed")->capture_default_str();
+  cmd->add_option("--config", o->config, "Task YAML (default: the task's own)");
+  cmd->add_option("--json", o->json_out, "Also write the statistics as JSON to this file");
+  cmd->footer("Example:\n  bidex play --task catch_underarm --policy random --steps 300");
+  cmd->callback([o] {
+    tasks::EnvOptions eo;
+    eo.nslot = o->slots;
+    eo.threads = o->threads;
+    eo.seed = o->seed;
+    tasks::TaskEnv env(tasks::make_task(o->task, o->config), eo);
+    const auto& sp = env.spec();
+    std::printf("%s: %d slots, %d threads, %s policy, %d steps, config %s\n",
+                sp.versioned_id().c_str(), env.nslot(), env.threads(), o->policy.c_str(), o->steps,
+                env.task().config_file().c_str());
+    const int nt = env.nterms();
+    // per term (and the reward as the last column): sum, sum of squares, min, max
+    std::vector<double> sum(nt + 1, 0), sq(nt + 1, 0), lo(nt + 1, INFINITY), hi(nt + 1, -INFINITY);
+    std::vector<float> actions(static_cast<size_t>(env.nslot()) * env.act_dim(), 0.f);
+    std::mt19937_64 rng(o->seed);
+    Progress bar("play", static_cast<int64_t>(o->steps) * env.nslot(), "slot-steps");
+    for (int i = 0; i < o->steps; ++i) {
+      if (o->policy == "random")
+        for (auto& a : actions) a = static_cast<float>(tasks::math::uniform(rng, -1, 1));
+      env.step(actions);
+      for (int s = 0; s < env.nslot(); ++s)
+        for (int k = 0; k <= nt; ++k) {
+          const double x = k < nt ? env.terms[static_cast<size_t>(s) * nt + k] : env.reward[s];
+          sum[k] += x;
+          sq[k] += x * x;
+          lo[k] = std::min(lo[k], x);
+          hi[k] = std::max(hi[k], x);
+        }
+      bar.update(static_cast<int64_t>(i + 1) * env.nslot());
+    }
+    bar.finish();
+    const double n = static_cast<double>(o->steps) * env.nslot();
+    auto ep = env.take_stats();
+    json out = {{"task", sp.versioned_id()}, {"policy", o->policy}, {"slots", env.nslot()},
+                {"steps", o->steps}, {"seed", o->seed}};
+    std::printf("\nper slot-step (%.0f of them):\n  %-16s %11s %11s %11s %11s %14s\n", n, "term",
+                "mean", "std", "min", "max", "episode mean");
+    for (int k = 0; k <= nt; ++k) {
+      const std::string name = k < nt ? sp.reward_terms[k].name : "reward (sum)";
+      const double mean = sum[k] / n, sd = std::sqrt(std::max(0.0, sq[k] / n - mean * mean));
+      const double per_ep = ep.episodes == 0 ? NAN
+                            : k < nt      ? ep.term_sums[k] / ep.episodes
+                                          : ep.return_sum / ep.episodes;
+      std::printf("  %-16s %11.5g %11.5g %11.5g %11.5g %14.5g\n", name.c_str(), mean, sd, lo[k],
+                  hi[k], per_ep);
+      out["terms"][name] = {{"mean", mean}, {"std", sd}, {"min", lo[k]}, {"max", hi[k]},
+                            {"episode_mean", per_ep}};
+    }
+    const double eps = static_cast<double>(ep.episodes);
+    std::printf("\nepisodes finished: %lld (terminated %lld, truncated %lld); mean return %.4g, "
+                "mean length %.1f, success rate %.3f; simulation faults: %lld\n",
+                static_cast<long long>(ep.episodes), static_cast<long long>(ep.terminated),
+                static_cast<long long>(ep.truncated), eps ? ep.return_sum / eps : NAN,
+                eps ? ep.length_sum / eps : NAN, eps ? ep.successes / eps : NAN,
+                static_cast<long long>(ep.faults));
+    out["episodes"] = {{"count", ep.episodes}, {"terminated", ep.terminated},
+                       {"truncated", ep.truncated}, {"faults", ep.faults},
+                       {"mean_return", eps ? ep.return_sum / eps : 0.0},
+                       {"mean_length", eps ? ep.length_sum / eps : 0.0},
+                       {"success_rate", eps ? ep.successes / eps : 0.0}};
+    if (!o->json_out.empty()) write_file_atomic(o->json_out, out.dump(2) + "\n");
+  });
+}
+
+}  // namespace bidex::apps

@@ -1,0 +1,223 @@
+#include "tasks/env.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <functional>
+
+#include <omp.h>
+
+#include "core/error.h"
+#include "sim/hand_spec.h"
+#include "sim/physics.h"
+#include "sim/scene.h"
+
+namespace bidex::tasks {
+
+namespace {
+constexpr int kPad = 8;  // doubles per thread in thread_times_ (one cache line)
+double now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+}  // namespace
+
+TaskEnv::TaskEnv(std::unique_ptr<Task> task, const EnvOptions& o) : task_(std::move(task)) {
+  if (o.nslot <= 0)
+    throw ConfigError("", "nslot", "a slot count > 0", std::to_string(o.nslot));
+  const TaskSpec& sp = task_->spec();
+  sim::HandSpec hand =
+      sim::load_hand_spec(o.hand_file.empty() ? sim::default_hand_path() : o.hand_file);
+  sim::PhysicsOptions physics =
+      sim::load_physics(o.physics_file.empty() ? sim::default_physics_path() : o.physics_file);
+  model_ = std::make_unique<sim::SimModel>(
+      task_->scene(hand, physics).build(sp.versioned_id() + " scene (" + task_->config_file() + ")"));
+  task_->bind(*model_);
+  batch_ = std::make_unique<sim::SimBatch>(*model_, o.nslot, sim::BatchOptions{o.threads, o.seed});
+
+  nslot_ = o.nslot;
+  obs_dim_ = sp.obs.dim();
+  act_dim_ = sp.act.dim();
+  nterms_ = static_cast<int>(sp.reward_terms.size());
+  episode_length_ = task_->episode_length();
+  if (nterms_ > kMaxTerms)
+    throw Error(sp.id + ": " + std::to_string(nterms_) + " reward terms, at most " +
+                std::to_string(kMaxTerms) + " supported");
+  if (act_dim_ > kMaxActions)
+    throw Error(sp.id + ": " + std::to_string(act_dim_) + " actions, at most " +
+                std::to_string(kMaxActions) + " supported");
+  const size_t n = static_cast<size_t>(nslot_);
+  obs.assign(n * obs_dim_, 0.f);
+  final_obs.assign(n * obs_dim_, 0.f);
+  reward.assign(n, 0.f);
+  terms.assign(n * nterms_, 0.f);
+  terminated.assign(n, 0);
+  truncated.assign(n, 0);
+  success.assign(n, 0);
+  fault.assign(n, 0);
+  state_.assign(n, SlotState{});
+  ep_return_.assign(n, 0.0);
+  ep_terms_.assign(n * nterms_, 0.0);
+  done_return_.assign(n, 0.0);
+  done_terms_.assign(n * nterms_, 0.0);
+  done_length_.assign(n, 0);
+  done_.assign(n, 0);
+  stats_.term_sums.assign(nterms_, 0.0);
+  thread_times_.assign(static_cast<size_t>(omp_get_max_threads() + 1) * kPad, 0.0);
+  reset();
+}
+
+TaskEnv::~TaskEnv() = default;
+
+TaskSlot TaskEnv::slot(int s) {
+  TaskSlot t;
+  t.index = s;
+  t.model = model_.get();
+  t.state = batch_->slot(s);
+  t.data = batch_->data(s);
+  t.rng = &batch_->rng(s);
+  t.task = &state_[s];
+  return t;
+}
+
+namespace {
+void clip_obs(float* o, int n) {
+  for (int i = 0; i < n; ++i) o[i] = std::clamp(o[i], -TaskEnv::kObsClip, TaskEnv::kObsClip);
+}
+}  // namespace
+
+void TaskEnv::start_episode(int s) {
+  state_[s] = SlotState{};
+  ep_return_[s] = 0;
+  std::fill_n(ep_terms_.data() + static_cast<size_t>(s) * nterms_, nterms_, 0.0);
+  TaskSlot t = slot(s);
+  task_->reset(t);
+  sim::sync_slot(*model_, *batch_, s);
+}
+
+void TaskEnv::reset() {
+  const size_t od = obs_dim_;
+#pragma omp parallel for schedule(static) num_threads(batch_->threads())
+  for (int s = 0; s < nslot_; ++s) {
+    sim::reset_slot(*model_, *batch_, s);
+    start_episode(s);
+    TaskSlot t = slot(s);
+    float* o = obs.data() + s * od;
+    task_->observe(t, o);
+    clip_obs(o, obs_dim_);
+    reward[s] = 0;
+    terminated[s] = truncated[s] = success[s] = fault[s] = 0;
+    done_[s] = 0;
+  }
+}
+
+void TaskEnv::post_step(int s) {
+  const double t0 = profile_on_ ? now() : 0;
+  SlotState& st = state_[s];
+  TaskSlot t = slot(s);
+  const bool faulted = batch_->fault[s] != sim::kFaultNone;
+  double tv_[kMaxTerms] = {};
+  bool term = false, trunc = false;
+  if (faulted) {
+    trunc = true;  // the episode is cut short; its last state is the simulation's reset state
+  } else {
+    st.progress += 1;
+    term = task_->evaluate(t, tv_);
+    trunc = !term && st.progress >= episode_length_;
+  }
+  double r = 0;
+  float* trow = terms.data() + static_cast<size_t>(s) * nterms_;
+  double* erow = ep_terms_.data() + static_cast<size_t>(s) * nterms_;
+  for (int k = 0; k < nterms_; ++k) {
+    r += tv_[k];
+    trow[k] = static_cast<float>(tv_[k]);
+    erow[k] += tv_[k];
+  }
+  reward[s] = static_cast<float>(r);
+  ep_return_[s] += r;
+  terminated[s] = term;
+  truncated[s] = trunc;
+  success[s] = st.success;
+  fault[s] = faulted;
+  done_[s] = term || trunc;
+  float* o = obs.data() + static_cast<size_t>(s) * obs_dim_;
+  if (done_[s]) {
+    float* fo = final_obs.data() + static_cast<size_t>(s) * obs_dim_;
+    task_->observe(t, fo);
+    clip_obs(fo, obs_dim_);
+    done_return_[s] = ep_return_[s];
+    done_length_[s] = st.progress;
+    std::copy_n(erow, nterms_, done_terms_.data() + static_cast<size_t>(s) * nterms_);
+    if (!faulted) sim::reset_slot(*model_, *batch_, s);
+    start_episode(s);
+  }
+  task_->observe(t, o);
+  clip_obs(o, obs_dim_);
+  if (profile_on_) thread_times_[omp_get_thread_num() * kPad + 1] += now() - t0;
+}
+
+void TaskEnv::step(const std::vector<float>& actions) {
+  if (actions.size() != static_cast<size_t>(nslot_) * act_dim_)
+    throw Error(spec().id + ": step expects " + std::to_string(nslot_) + " x " +
+                std::to_string(act_dim_) + " actions, got " + std::to_string(actions.size()));
+  step(actions.data());
+}
+
+void TaskEnv::step(const float* actions) {
+  const double w0 = profile_on_ ? now() : 0;
+  actions_ = actions;
+  const std::function<void(int)> pre = [this](int s) {
+    const double t0 = profile_on_ ? now() : 0;
+    SlotState& st = state_[s];
+    const float* a = actions_ + static_cast<size_t>(s) * act_dim_;
+    for (int k = 0; k < act_dim_; ++k) st.action[k] = std::clamp(a[k], -1.0f, 1.0f);
+    TaskSlot t = slot(s);
+    task_->apply_actions(st.action.data(), t);
+    if (profile_on_) thread_times_[omp_get_thread_num() * kPad] += now() - t0;
+  };
+  const std::function<void(int)> post = [this](int s) { post_step(s); };
+  sim::step(*model_, *batch_, &post, &pre);
+  actions_ = nullptr;
+
+  // episode records, in slot order (the same totals for any thread count)
+  for (int s = 0; s < nslot_; ++s) {
+    if (fault[s]) stats_.faults += 1;
+    if (!done_[s]) continue;
+    stats_.episodes += 1;
+    stats_.successes += success[s];
+    stats_.terminated += terminated[s];
+    stats_.truncated += truncated[s];
+    stats_.return_sum += done_return_[s];
+    stats_.length_sum += done_length_[s];
+    const double* dt = done_terms_.data() + static_cast<size_t>(s) * nterms_;
+    for (int k = 0; k < nterms_; ++k) stats_.term_sums[k] += dt[k];
+  }
+  if (profile_on_) {
+    profile_.steps += 1;
+    profile_.wall += now() - w0;
+  }
+}
+
+EpisodeStats TaskEnv::take_stats() {
+  EpisodeStats out = stats_;
+  stats_ = EpisodeStats{};
+  stats_.term_sums.assign(nterms_, 0.0);
+  return out;
+}
+
+void TaskEnv::set_profile(bool on) {
+  profile_on_ = on;
+  profile_ = StageProfile{};
+  std::fill(thread_times_.begin(), thread_times_.end(), 0.0);
+}
+
+StageProfile TaskEnv::profile() const {
+  StageProfile p = profile_;
+  for (size_t i = 0; i + 1 < thread_times_.size(); i += kPad) {
+    p.actions += thread_times_[i];
+    p.task += thread_times_[i + 1];
+  }
+  return p;
+}
+
+}  // namespace bidex::tasks

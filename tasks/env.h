@@ -1,0 +1,109 @@
+// TaskEnv: one task on N slots. Owns the compiled scene, the simulation batch, the per-slot task
+// state and the float32 buffers that learning code reads. One call to step() runs, per slot and
+// inside one parallel loop over slots (tasks/README.md):
+//   1. apply_actions  2. physics (substeps)  3. evaluate: reward terms, termination, success
+//   4. reset of finished slots  5. observe
+// Same seed and actions => bitwise identical results for any thread count.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim/batch.h"
+#include "tasks/task.h"
+
+namespace bidex::tasks {
+
+struct EnvOptions {
+  int nslot = 1;
+  int threads = 0;            // 0: all cores
+  uint64_t seed = 0;
+  std::string hand_file;      // empty: configs/hands/shadow.yaml
+  std::string physics_file;   // empty: configs/sim/physics.yaml
+};
+
+// Episodes finished since the last take_stats().
+struct EpisodeStats {
+  int64_t episodes = 0;
+  int64_t successes = 0;
+  int64_t terminated = 0;     // ended by the task (drop, drift, ...)
+  int64_t truncated = 0;      // ended by the time limit or a fault
+  int64_t faults = 0;         // slots reset by the simulation (non-finite, exploded, ...)
+  double return_sum = 0;
+  double length_sum = 0;
+  std::vector<double> term_sums;  // per reward term: sum over episodes of the term's return
+};
+
+// Wall time of the stages, summed over steps since set_profile(true).
+struct StageProfile {
+  int64_t steps = 0;
+  double wall = 0;     // seconds of step() in total
+  double actions = 0;  // thread-seconds in apply_actions
+  double task = 0;     // thread-seconds in evaluate + reset + observe
+};
+
+class TaskEnv {
+ public:
+  TaskEnv(std::unique_ptr<Task> task, const EnvOptions& options);
+  ~TaskEnv();
+  TaskEnv(const TaskEnv&) = delete;
+  TaskEnv& operator=(const TaskEnv&) = delete;
+
+  const TaskSpec& spec() const { return task_->spec(); }
+  const Task& task() const { return *task_; }
+  const sim::SimModel& model() const { return *model_; }
+  sim::SimBatch& batch() { return *batch_; }
+  const SlotState& slot_state(int s) const { return state_[s]; }
+  int nslot() const { return nslot_; }
+  int obs_dim() const { return obs_dim_; }
+  int act_dim() const { return act_dim_; }
+  int nterms() const { return nterms_; }
+  int threads() const { return batch_->threads(); }
+
+  // Starts a new episode in every slot and writes `obs`.
+  void reset();
+  // One control step of every slot; `actions` holds nslot x act_dim values (clipped to [-1, 1]
+  // here; a NaN reaches the simulation, which flags and resets that slot).
+  void step(const float* actions);
+  void step(const std::vector<float>& actions);
+
+  // Results of the last step (rows per slot).
+  std::vector<float> obs;          // nslot x obs_dim: after the reset of finished slots, clipped
+  std::vector<float> final_obs;    // nslot x obs_dim: for finished slots, before their reset
+  std::vector<float> reward;       // nslot
+  std::vector<float> terms;        // nslot x nterms: the reward's terms (reward = their sum)
+  std::vector<uint8_t> terminated; // the task ended the episode
+  std::vector<uint8_t> truncated;  // the time limit (or a fault) ended it
+  std::vector<uint8_t> success;    // the episode's success flag as of this step
+  std::vector<uint8_t> fault;      // the simulation reset this slot (see SimBatch::fault)
+
+  EpisodeStats take_stats();
+  void set_profile(bool on);
+  StageProfile profile() const;
+
+  static constexpr float kObsClip = 5.0f;
+
+ private:
+  TaskSlot slot(int s);
+  void start_episode(int s);  // task reset after the simulation's reset
+  void post_step(int s);
+
+  std::unique_ptr<Task> task_;
+  std::unique_ptr<sim::SimModel> model_;
+  std::unique_ptr<sim::SimBatch> batch_;
+  int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, nterms_ = 0, episode_length_ = 0;
+  std::vector<SlotState> state_;
+  const float* actions_ = nullptr;
+  // per-slot episode accumulators and the record of an episode that ended this step
+  std::vector<double> ep_return_, ep_terms_, done_return_, done_terms_;
+  std::vector<int> done_length_;
+  std::vector<uint8_t> done_;
+  EpisodeStats stats_;
+  bool profile_on_ = false;
+  StageProfile profile_;
+  std::vector<double> thread_times_;  // per thread: actions, task (padded)
+};
+
+}  // namespace bidex::tasks

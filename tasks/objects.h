@@ -1,0 +1,35 @@
+// The objects a task can be configured with: the original's egg, block and pen, a ball, or a
+// user's MJCF body file. YAML: `object: egg`, or a map
+//   object: {type: ball, size: [0.035], density: 500, friction: 1}
+//   object: {type: mjcf, file: my_object.xml}   # the inside of a <body> element; path relative
+//                                               # to the YAML file
+#pragma once
+
+#include <string>
+
+#include "sim/scene.h"
+
+namespace bidex {
+class YamlView;
+}
+
+namespace bidex::tasks {
+
+struct ObjectChoice {
+  std::string type;     // egg, block, pen, ball or mjcf
+  sim::ObjectSpec spec; // shape, size, mass, damping, friction (name and pose are the task's)
+  std::string file;     // mjcf: where the body came from
+  double density = 0;   // kg/m^3 of the primitive shapes (0 for mjcf)
+};
+
+// The preset of a type (egg, block, pen, ball); throws ConfigError listing the types.
+ObjectChoice object_preset(const std::string& type, const std::string& file = "",
+                           const std::string& key = "object");
+// Reads `object:` from a task YAML (a type name or a map, see above).
+ObjectChoice parse_object(const YamlView& v);
+// A goal marker drawn like the object (an mjcf object gets a small sphere), never colliding.
+sim::ObjectSpec goal_marker(const ObjectChoice& object, const std::string& name);
+// Volume (m^3) of a primitive object.
+double object_volume(const sim::ObjectSpec& o);
+
+}  // namespace bidex::tasks

@@ -1,0 +1,36 @@
+// Every task of bidex, registered in one place (registry.cc), in the paper's order.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tasks/task.h"
+
+namespace bidex::tasks {
+
+struct TaskEntry {
+  const TaskSpec& (*spec)();
+  std::unique_ptr<Task> (*make)(const std::string& config_file);
+};
+
+const std::vector<TaskEntry>& task_registry();
+// The entry of a task id; throws ConfigError listing the known ids.
+const TaskEntry& find_task(const std::string& id);
+// The default YAML of a task: tasks/<id>/<id>.yaml under the data folder.
+std::string default_task_config(const std::string& id);
+// A task configured from `config_file` (empty: its default YAML).
+std::unique_ptr<Task> make_task(const std::string& id, const std::string& config_file = "");
+
+// Each task folder defines its spec and factory (declared here, defined there).
+#define BIDEX_TASK(id)                   \
+  const TaskSpec& id##_spec();           \
+  std::unique_ptr<Task> make_##id(const std::string& config_file);
+BIDEX_TASK(hand_over)
+BIDEX_TASK(catch_underarm)
+BIDEX_TASK(catch_over2underarm)
+BIDEX_TASK(catch_abreast)
+BIDEX_TASK(two_catch_underarm)
+#undef BIDEX_TASK
+
+}  // namespace bidex::tasks

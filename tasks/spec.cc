@@ -1,0 +1,91 @@
+#include "tasks/spec.h"
+
+#include "core/error.h"
+
+namespace bidex::tasks {
+
+Layout& Layout::add(std::string name, int size, std::string doc, bool goal) {
+  Slice s;
+  s.name = std::move(name);
+  s.start = dim();
+  s.size = size;
+  s.doc = std::move(doc);
+  s.goal = goal;
+  slices_.push_back(std::move(s));
+  return *this;
+}
+
+const Slice* Layout::find(const std::string& name) const {
+  for (auto& s : slices_)
+    if (s.name == name) return &s;
+  return nullptr;
+}
+
+const Slice& Layout::at(const std::string& name) const {
+  if (auto* s = find(name)) return *s;
+  std::string names;
+  for (auto& s : slices_) names += (names.empty() ? "" : ", ") + s.name;
+  throw Error("no slice '" + name + "' (slices: " + names + ")");
+}
+
+const char* difficulty_name(Difficulty d) {
+  switch (d) {
+    case Difficulty::kEasy: return "easy";
+    case Difficulty::kMedium: return "medium";
+    case Difficulty::kHard: return "hard";
+  }
+  return "?";
+}
+
+int TaskSpec::term_index(const std::string& name) const {
+  for (size_t i = 0; i < reward_terms.size(); ++i)
+    if (reward_terms[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+void add_hand_obs(Layout& obs, const std::string& side, bool free_base) {
+  const std::string p = side + ".";
+  obs.add(p + "dof_pos", 24, "joint angles, tree order, scaled to [-1, 1] by the joint range");
+  obs.add(p + "dof_vel", 24, "joint velocities (rad/s) x 0.2");
+  obs.add(p + "dof_force", 24,
+          "joint torques (N m) x 10: the motor torque of driven joints, the coupling (constraint) "
+          "torque of the four coupled distal joints");
+  obs.add(p + "fingertip_state", 65,
+          "5 fingertips (ff, mf, rf, lf, th) x [position 3, quaternion (x, y, z, w) 4, linear "
+          "velocity 3, angular velocity 3], world frame, at each distal body's origin");
+  obs.add(p + "fingertip_force", 30, "5 fingertips x [force 3, torque 3] (N, N m) x 10");
+  if (free_base) {
+    obs.add(p + "base_pos", 3, "position of the hand's base (forearm origin), world frame");
+    obs.add(p + "base_rot", 3, "orientation of the base as roll, pitch, yaw, each in [0, 2 pi)");
+  }
+  obs.add(p + "actions", free_base ? 26 : 20, "this hand's actions of the last step, clipped");
+}
+
+void add_hand_act(Layout& act, const std::string& side, bool free_base) {
+  const std::string p = side + ".";
+  act.add(p + "joints", 20,
+          "targets of the 20 actuated joints, tree order: -1..1 spans each joint's range");
+  if (free_base) {
+    act.add(p + "base_translation", 3, "world-frame force on the base, -1..1 of the task's maximum");
+    act.add(p + "base_rotation", 3, "world-frame torque on the base, -1..1 of the task's maximum");
+  }
+}
+
+std::vector<AgentSpec> agents_per_hand(const Layout& obs, const Layout& act) {
+  std::vector<AgentSpec> agents;
+  for (const char* side : {"right", "left"}) {
+    AgentSpec a;
+    a.name = side;
+    const std::string p = std::string(side) + ".";
+    for (auto& s : obs.slices()) {
+      bool hand = s.name.rfind("right.", 0) == 0 || s.name.rfind("left.", 0) == 0;
+      if (!hand || s.name.rfind(p, 0) == 0) a.obs.push_back(s.name);
+    }
+    for (auto& s : act.slices())
+      if (s.name.rfind(p, 0) == 0) a.act.push_back(s.name);
+    agents.push_back(std::move(a));
+  }
+  return agents;
+}
+
+}  // namespace bidex::tasks

@@ -1,0 +1,92 @@
+// TaskSpec: the static description of a task (identity, the paper's human age and difficulty,
+// episode length, the named slices of its observation and action vectors, its agents and reward
+// terms). One constant instance per task; `bidex info --task ID` prints it.
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace bidex::tasks {
+
+// A named, contiguous range of an observation or action vector.
+struct Slice {
+  std::string name;  // e.g. "right.dof_pos", "object.pose", "goal.rot_diff"
+  int start = 0;
+  int size = 0;
+  std::string doc;    // content, units and scaling
+  bool goal = false;  // describes the goal (meta-RL masks these)
+  int end() const { return start + size; }
+};
+
+// A vector layout: slices in order, without gaps.
+class Layout {
+ public:
+  // Appends a slice after the last one.
+  Layout& add(std::string name, int size, std::string doc, bool goal = false);
+  const std::vector<Slice>& slices() const { return slices_; }
+  int dim() const { return slices_.empty() ? 0 : slices_.back().end(); }
+  // nullptr when absent.
+  const Slice* find(const std::string& name) const;
+  // Like find, but throws bidex::Error naming the layout's slices.
+  const Slice& at(const std::string& name) const;
+
+ private:
+  std::vector<Slice> slices_;
+};
+
+// An agent of the multi-agent setting: which slices it observes and which it acts on.
+struct AgentSpec {
+  std::string name;
+  std::vector<std::string> obs;  // slice names of the observation
+  std::vector<std::string> act;  // slice names of the action
+};
+
+enum class Difficulty { kEasy, kMedium, kHard };
+const char* difficulty_name(Difficulty d);
+
+// The age (months) at which infants acquire the skill, from the paper's task table.
+struct HumanAge {
+  int min_months = 0;
+  int max_months = 0;      // == min_months for a single age
+  std::string text;        // as the paper writes it: "48", "9-10", "adult"
+  // The paper's source comments the row out (the catch tasks other than catch_underarm): the
+  // value is still the paper's, but it is not in the printed table.
+  bool from_commented_row = false;
+};
+
+struct RewardTermSpec {
+  std::string name;
+  std::string doc;
+};
+
+struct TaskSpec {
+  std::string id;             // e.g. "catch_underarm"
+  int version = 1;            // bumped whenever the task's dynamics, reward or layout change
+  std::string paper_name;     // e.g. "Catch Underarm"
+  std::string original_name;  // e.g. "ShadowHandCatchUnderarm"
+  HumanAge age;
+  Difficulty difficulty = Difficulty::kEasy;
+  std::string skill;          // the human skill, paraphrasing the paper's table
+  int episode_length = 0;     // control steps (60 Hz)
+  bool free_base = false;     // hands on 6-DoF bases (52 actions) or fixed (40)
+  Layout obs, act;
+  std::vector<AgentSpec> agents;
+  std::vector<RewardTermSpec> reward_terms;  // the reward is the sum of these terms
+
+  std::string versioned_id() const { return id + "-v" + std::to_string(version); }
+  int term_index(const std::string& name) const;  // -1 when absent
+};
+
+// The per-hand part of every layout (paper, Appendix A): the hand blocks of the observation and
+// the hand slices of the action, for fixed (187 obs / 20 act) or free (199 / 26) bases.
+void add_hand_obs(Layout& obs, const std::string& side, bool free_base);
+void add_hand_act(Layout& act, const std::string& side, bool free_base);
+// Observation widths of one hand block.
+constexpr int kHandObsFixed = 187;
+constexpr int kHandObsFree = 199;
+
+// One agent per hand: its own hand block plus every non-hand slice of the observation (the
+// task tail), and its own action slices.
+std::vector<AgentSpec> agents_per_hand(const Layout& obs, const Layout& act);
+
+}  // namespace bidex::tasks
