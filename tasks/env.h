@@ -56,6 +56,9 @@ class TaskEnv {
   const sim::SimModel& model() const { return *model_; }
   sim::SimBatch& batch() { return *batch_; }
   const SlotState& slot_state(int s) const { return state_[s]; }
+  // A slot as the task's stage functions see it (tests craft states through it: edit
+  // slot.data / slot.task, then sim::sync_slot).
+  TaskSlot slot(int s);
   int nslot() const { return nslot_; }
   int obs_dim() const { return obs_dim_; }
   int act_dim() const { return act_dim_; }
@@ -86,7 +89,6 @@ class TaskEnv {
   static constexpr float kObsClip = 5.0f;
 
  private:
-  TaskSlot slot(int s);
   void start_episode(int s);  // task reset after the simulation's reset
   void post_step(int s);
 
