@@ -7,6 +7,7 @@
 #include "apps/commands.h"
 #include "bench/physics_study.h"
 #include "bench/sim_bench.h"
+#include "bench/task_bench.h"
 #include "core/files.h"
 #include "sim/hand_spec.h"
 
@@ -88,6 +89,25 @@ void add_bench_command(CLI::App& app) {
                                                           : *soak_physics);
     emit(bench::run_soak(*so), *soak_out, command_line());
   });
+
+  // bench task
+  auto tc = std::make_shared<bench::TaskBenchConfig>();
+  auto task_out = std::make_shared<std::string>();
+  auto* task = bench->add_subcommand(
+      "task", "Slot-steps/s of whole task steps (random actions, physics, rewards, resets, "
+              "observations) for each task and slot count, with a profile of where the time goes");
+  task->add_option("--task", tc->tasks, "Task ids, e.g. catch_underarm,hand_over")
+      ->delimiter(',')->required();
+  task->add_option("--slots", tc->slots, "Slot counts")->delimiter(',')->capture_default_str();
+  task->add_option("--threads", tc->threads, "Threads (0: all cores)")->capture_default_str();
+  task->add_option("--seconds", tc->min_seconds, "Timed stepping per measurement")
+      ->capture_default_str();
+  task->add_option("--seed", tc->seed, "Seed")->capture_default_str();
+  task->add_option("--physics", tc->physics_file, "Physics YAML (default: configs/sim/physics.yaml)");
+  task->add_flag("!--no-profile", tc->profile, "Skip the profiled run");
+  task->add_option("--out,-o", *task_out, "Write the JSON here (atomically) instead of stdout");
+  task->footer("Example:\n  bidex bench task --task catch_underarm --slots 64 --seconds 1");
+  task->callback([tc, task_out] { emit(bench::run_task_bench(*tc), *task_out, command_line()); });
 
   // bench physics
   auto ps = std::make_shared<bench::PhysicsStudyConfig>();
