@@ -60,6 +60,17 @@ TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string o
 
 std::unique_ptr<Task> make_catch_task(const TaskSpec& spec, const std::string& config_file);
 
+// Defines a family member's <id>_spec() and make_<id>() (declared in registry.h); the arguments
+// after the id are catch_family_spec's.
+#define BIDEX_DEFINE_CATCH_TASK(id, ...)                                          \
+  const TaskSpec& id##_spec() {                                                   \
+    static const TaskSpec spec = catch_family_spec(#id, __VA_ARGS__);             \
+    return spec;                                                                  \
+  }                                                                               \
+  std::unique_ptr<Task> make_##id(const std::string& config_file) {               \
+    return make_catch_task(id##_spec(), config_file);                             \
+  }
+
 class CatchTask : public Task {
  public:
   CatchTask(const TaskSpec& spec, CatchParams params);

@@ -1,19 +1,15 @@
-// catch_abreast: Catch Abreast (the original's ShadowHandCatchAbreast); defaults in catch_abreast.yaml, decisions in README.md.
+// catch_abreast: Catch Abreast (the original's ShadowHandCatchAbreast);
+// defaults in catch_abreast.yaml, decisions in README.md.
 #include "tasks/catch_family.h"
 #include "tasks/registry.h"
 
 namespace bidex::tasks {
 
-const TaskSpec& catch_abreast_spec() {
-  static const TaskSpec spec = catch_family_spec(
-      "catch_abreast", "Catch Abreast", "ShadowHandCatchAbreast", HumanAge{9, 10, "9-10", true}, Difficulty::kEasy,
-      "Passing an object between one person's two hands, side by side (the paper's commented-out hand-over row).",
-      /*episode_length=*/150, /*free_base=*/true, /*nobjects=*/1);
-  return spec;
-}
+BIDEX_DEFINE_CATCH_TASK(
+    catch_abreast, "Catch Abreast", "ShadowHandCatchAbreast",
+    HumanAge{9, 10, "9-10", true}, Difficulty::kEasy,
+    "Passing an object between one person's two hands, side by side (the "
+    "paper's commented-out hand-over row).",
+    /*episode_length=*/150, /*free_base=*/true, /*nobjects=*/1)
 
-std::unique_ptr<Task> make_catch_abreast(const std::string& config_file) {
-  return make_catch_task(catch_abreast_spec(), config_file);
-}
-
-}  // namespace bidex::tasks
+} // namespace bidex::tasks
