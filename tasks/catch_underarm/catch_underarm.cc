@@ -5,11 +5,10 @@
 
 namespace bidex::tasks {
 
-BIDEX_DEFINE_CATCH_TASK(catch_underarm, "Catch Underarm",
-                        "ShadowHandCatchUnderarm",
+BIDEX_DEFINE_CATCH_TASK(catch_underarm, "Catch Underarm", "ShadowHandCatchUnderarm",
                         HumanAge{48, 48, "48", false}, Difficulty::kHard,
                         "Catches a large ball most of the time.",
                         /*episode_length=*/75, /*free_base=*/true,
                         /*nobjects=*/1)
 
-} // namespace bidex::tasks
+}  // namespace bidex::tasks
