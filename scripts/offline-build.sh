@@ -15,7 +15,11 @@ cd "$(dirname "$0")/.."
 debs=(libmujoco2.2.2 libmujoco-dev libccd2 liblodepng0 libqhull-r8.0 libtinyxml2-9
       libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen3-dev
       libcli11-dev nlohmann-json3-dev
-      libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0)  # OpenGL: named by mujocoConfig.cmake
+      libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0  # OpenGL: named by mujocoConfig.cmake
+      # headless rendering (sim/render): OSMesa (software llvmpipe, opened at the first render)
+      # with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
+      libosmesa6 libosmesa6-dev libglapi-mesa libllvm15 libz3-4 libedit2 libbsd0 libmd0
+      libxml2 libicu72 libpng16-16 libpng-dev)
 
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
