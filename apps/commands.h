@@ -18,5 +18,6 @@ void add_sim_command(CLI::App& app);    // bidex sim: step the two-hand scene, r
 void add_bench_command(CLI::App& app);  // bidex bench sim|soak|physics|task
 void add_info_command(CLI::App& app);   // bidex info: a task's spec and named slices
 void add_play_command(CLI::App& app);   // bidex play: run a task with random/zero actions
+void add_render_command(CLI::App& app); // bidex render: a task's initial scene as a PNG
 
 }  // namespace bidex::apps
