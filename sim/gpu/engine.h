@@ -33,11 +33,13 @@ class Engine {
   virtual std::string describe() const = 0;
 };
 
-// The engine on the host, in precision T.
+// The engine on the host, in precision T. With lanes > 1 every world is run by that many host
+// threads meeting at barriers, as the lanes of a GPU world group do (a test of the kernels'
+// lane logic, not a fast path).
 template <class T>
 class HostEngine : public Engine {
  public:
-  HostEngine(const ModelArrays& arrays, int nworld);
+  HostEngine(const ModelArrays& arrays, int nworld, int lanes = 1);
   ~HostEngine() override;
 
   int nworld() const override { return nworld_; }
@@ -53,7 +55,12 @@ class HostEngine : public Engine {
   World<T> world(int w) const { return data_.world(w); }
 
  private:
+  // runs fn(world, lanes) for every world, on `lanes_` threads per world when lanes_ > 1
+  template <class F>
+  void each_world(F fn);
+
   int nworld_;
+  int lanes_;
   PackedModel<T> packed_;
   Model<T> model_;
   HostData<T> data_;

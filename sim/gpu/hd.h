@@ -1,8 +1,9 @@
 // Host/device portability of the GPU engine. Every stage function is written once and compiled
 // twice: by g++ for the host (CI runs the parity tests on it) and by nvcc for the GPU.
 //   BIDEX_HD  marks a function for both sides; it is empty when nvcc is not compiling.
-//   Lanes     is the group of threads that work on one world together: on the host one thread,
-//             on the GPU 4 to 32 lanes of one warp. Stage functions split per-body, per-dof and
+//   Lanes     is the group of threads that work on one world together: on the GPU 4 to 32
+//             lanes of one warp, on the host one thread (or, in tests, a group of host threads
+//             standing in for the lanes). Stage functions split per-body, per-dof and
 //             per-constraint loops over the lanes and call sync() between dependent phases.
 #pragma once
 
@@ -16,15 +17,25 @@
 
 namespace bidex::sim::gpu {
 
+// A group of host threads standing in for the lanes of one world (engine.cc): the parity tests
+// run the stage functions split over several lanes on the host, so CI checks the lane logic of
+// the kernels without a GPU.
+struct HostLaneGroup;
+void host_lane_sync(HostLaneGroup* group);
+double host_lane_reduce(HostLaneGroup* group, int id, double v, bool take_max);
+
 struct Lanes {
   int id = 0;         // this thread's lane, 0 .. n-1
   int n = 1;          // lanes per world (a power of two, at most 32)
   unsigned mask = 1;  // the group's lanes within its warp (device only)
+  HostLaneGroup* host = nullptr;  // host emulation of n > 1 lanes (host only)
 
-  // Barrier and memory fence among the group's lanes (nothing to do on the host).
+  // Barrier and memory fence among the group's lanes.
   BIDEX_HD void sync() const {
 #if defined(__CUDA_ARCH__)
     __syncwarp(mask);
+#else
+    if (host) host_lane_sync(host);
 #endif
   }
 
@@ -34,6 +45,8 @@ struct Lanes {
   BIDEX_HD T sum(T v) const {
 #if defined(__CUDA_ARCH__)
     for (int off = n / 2; off > 0; off >>= 1) v += __shfl_xor_sync(mask, v, off);
+#else
+    if (host) v = static_cast<T>(host_lane_reduce(host, id, static_cast<double>(v), false));
 #endif
     return v;
   }
@@ -46,19 +59,10 @@ struct Lanes {
       T o = __shfl_xor_sync(mask, v, off);
       v = o > v ? o : v;
     }
-#endif
-    return v;
-  }
-
-  // v of lane `src`, returned to every lane.
-  template <class T>
-  BIDEX_HD T broadcast(T v, int src) const {
-#if defined(__CUDA_ARCH__)
-    return __shfl_sync(mask, v, src, n);
 #else
-    (void)src;
-    return v;
+    if (host) v = static_cast<T>(host_lane_reduce(host, id, static_cast<double>(v), true));
 #endif
+    return v;
   }
 };
 

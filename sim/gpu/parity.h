@@ -55,6 +55,12 @@ struct ParityReport {
 // "trajectory"), for float64 or float32 engines.
 Tolerance stage_tolerance(const std::string& stage, bool float32);
 
+// MJCF of a small model with the features the two-hand scene does not use (springs, a limited
+// ball joint, a welded body, fixed tendons with spring, damper, friction, limits, an equality and
+// an actuator, a polynomial joint coupling, affine gain and bias, a velocity servo, a motor with
+// gear, a free body), contacts disabled.
+const char* features_mjcf();
+
 // A copy of `m` with contacts disabled (mjDSBL_CONTACT): what part 1 of the engine simulates.
 // Free it with mj_deleteModel.
 mjModel* contact_free_copy(const mjModel* m);
