@@ -401,8 +401,13 @@ std::string ParityReport::failures() const {
 }
 
 Tolerance stage_tolerance(const std::string& stage, bool float32) {
-  // float64: measured errors are 1e-15 .. 1e-12 (rounding only); the bounds leave 10-100x room.
-  // float32: single-precision rounding through the same pipeline.
+  // float64: most stages agree to the last bits (sim/gpu/README.md has the measured errors); the
+  // constrained acceleration of these random states (violated limits and couplings, |qacc| up
+  // to 1e5) is ill-conditioned, so qacc and the forces agree to ~1e-8 of their largest values
+  // however tight MuJoCo's tolerance is, and one step's qvel to h times that.
+  // float32: single-precision rounding through the same pipeline; R = (1-imp)/imp diagApprox
+  // loses digits as imp nears 1 (relative 1e-4 at imp 0.999); the same conditioning makes the
+  // solver's outputs good to ~1e-3 of their largest value and one step's qvel to h times that.
   struct Row {
     const char* stage;
     Tolerance f64, f32;
@@ -412,7 +417,7 @@ Tolerance stage_tolerance(const std::string& stage, bool float32) {
       {"mj_comPos", {1e-12, 1e-12, 0}, {2e-5, 1e-5, 0}},
       {"mj_tendon", {1e-12, 0, 0}, {2e-5, 0, 0}},
       {"mj_crb", {1e-14, 1e-12, 0}, {0, 1e-5, 1e-6}},
-      {"mj_factorM", {0, 1e-10, 1e-12}, {0, 1e-3, 1e-5}},
+      {"mj_factorM", {0, 1e-10, 1e-12}, {0, 1e-2, 1e-4}},
       {"mj_transmission", {1e-12, 0, 0}, {1e-5, 0, 0}},
       {"mj_fwdVelocity", {1e-12, 1e-10, 0}, {1e-5, 1e-4, 0}},
       {"mj_comVel", {1e-12, 1e-10, 0}, {1e-5, 1e-4, 0}},
@@ -420,10 +425,10 @@ Tolerance stage_tolerance(const std::string& stage, bool float32) {
       {"mj_rne", {1e-12, 1e-10, 1e-12}, {0, 1e-4, 1e-5}},
       {"mj_fwdActuation", {1e-12, 1e-12, 0}, {1e-6, 1e-5, 0}},
       {"mj_fwdAcceleration", {0, 1e-9, 1e-11}, {0, 1e-3, 1e-4}},
-      {"mj_makeConstraint", {1e-12, 1e-10, 0}, {1e-5, 1e-4, 0}},
-      {"mj_referenceConstraint", {1e-12, 1e-10, 0}, {1e-5, 1e-4, 1e-5}},
-      {"mj_fwdConstraint", {0, 1e-6, 1e-8}, {0, 1e-2, 1e-2}},
-      {"mj_Euler", {1e-10, 1e-8, 0}, {1e-5, 1e-3, 1e-4}},
+      {"mj_makeConstraint", {1e-12, 1e-10, 0}, {1e-5, 5e-4, 0}},
+      {"mj_referenceConstraint", {1e-12, 1e-10, 0}, {1e-5, 5e-4, 1e-5}},
+      {"mj_fwdConstraint", {0, 1e-6, 1e-6}, {0, 1e-2, 1e-2}},
+      {"mj_Euler", {1e-9, 1e-8, 1e-6}, {1e-4, 1e-3, 2e-2}},
       {"trajectory", {1e-7, 0, 0}, {1e-3, 0, 0}},
       {"trajectory_qvel", {1e-5, 0, 0}, {1e-1, 0, 0}},
   };

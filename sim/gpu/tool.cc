@@ -127,6 +127,7 @@ struct ParityOptions {
   int worlds = 256;
   int trajectory_worlds = 16;
   double seconds = 1.0;
+  uint64_t seed = 100;
   std::string out;
   std::string hand;
 };
@@ -152,7 +153,7 @@ int run_parity(const ParityOptions& o) {
     all = all && r.pass();
   };
   const std::vector<int> lanes = o.engine == "host" ? std::vector<int>{1} : split_ints(o.lanes);
-  uint64_t seed = 100;
+  uint64_t seed = o.seed;
   for (const std::string& p : split(o.precision)) {
     const bool f32 = is_f32(p);
     for (int L : lanes) {
@@ -319,6 +320,7 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   parity->add_option("--seconds", po.seconds, "simulated seconds of the trajectory check")
       ->capture_default_str();
+  parity->add_option("--seed", po.seed, "seed of the random states")->capture_default_str();
   parity->add_option("--out", po.out, "JSON report");
   parity->add_option("--hand", po.hand, "hand spec (default: configs/hands/shadow.yaml)");
 
