@@ -51,6 +51,8 @@ class DeviceEngine : public Engine {
   virtual std::vector<std::pair<std::string, double>> time_stages(int repeats) = 0;
   // Worlds whose fault word is nonzero (read back from the device).
   virtual int faulty_worlds() = 0;
+  // Mean over the worlds of the solver iterations of their last physics step.
+  virtual double mean_solver_iterations() = 0;
 };
 
 // A device engine for `nworld` worlds in float32 or float64 with `lanes` threads per world.

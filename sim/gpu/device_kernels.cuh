@@ -277,6 +277,15 @@ class CudaEngine final : public DeviceEngine {
     return out;
   }
 
+  double mean_solver_iterations() override {
+    std::vector<int> it(nworld_);
+    check(cudaMemcpy(it.data(), data_.solver_niter, sizeof(int) * nworld_, cudaMemcpyDeviceToHost),
+          "solver iterations");
+    double sum = 0;
+    for (int v : it) sum += v;
+    return nworld_ ? sum / nworld_ : 0.0;
+  }
+
   int faulty_worlds() override {
     check(cudaMemset(dcount_, 0, sizeof(int)), "cudaMemset");
     count_faults<<<(nworld_ + 255) / 256, 256>>>(data_.fault, nworld_, dcount_);

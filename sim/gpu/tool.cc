@@ -199,36 +199,39 @@ json bench_one(const Scene& scene, bool f32, int lanes, int blocks_per_sm, int n
   r["lanes"] = lanes;
   r["resident_blocks_per_sm"] = blocks_per_sm;
   r["worlds"] = nworld;
-  std::unique_ptr<DeviceEngine> e;
   try {
-    e = make_device_engine(scene.arrays, nworld, f32, lanes);
+    auto e = make_device_engine(scene.arrays, nworld, f32, lanes);
     e->set_resident_blocks_per_sm(blocks_per_sm);
+    const int substeps = scene.model.physics().substeps;
+    e->reset_worlds(scene.model.gravity_compensation(), 7);
+    // warm up, then enough launches for min_seconds
+    const double t1 = e->time_steps(2, substeps, o.observe, 1000) / 2;
+    const int launches =
+        std::clamp(static_cast<int>(std::ceil(o.min_seconds / std::max(t1, 1e-6))), 3, 200);
+    double best = 1e300;
+    for (int k = 0; k < o.rounds; ++k)
+      best = std::min(best, e->time_steps(launches, substeps, o.observe, 2000 + 1000 * k) / launches);
+    const double steps_per_s = static_cast<double>(nworld) * substeps / best;
+    r["substeps_per_launch"] = substeps;
+    r["launches"] = launches;
+    r["seconds_per_control_step"] = best;
+    r["world_steps_per_s"] = steps_per_s;
+    r["control_steps_per_s"] = nworld / best;
+    r["state_bytes_per_world"] = static_cast<double>(e->state_bytes()) / nworld;
+    r["model_bytes"] = e->model_bytes();
+    r["mean_solver_iterations"] = e->mean_solver_iterations();
+    r["faulty_worlds"] = e->faulty_worlds();
+    std::printf("  %s lanes %2d blocks/SM %d worlds %6d: %10.0f world-steps/s  (%.3f ms per "
+                "control step of %d substeps, %.1f KB per world, %.2f solver iterations, %d "
+                "faulty)\n",
+                f32 ? "f32" : "f64", lanes, blocks_per_sm, nworld, steps_per_s, best * 1e3,
+                substeps, e->state_bytes() / 1024.0 / nworld,
+                r["mean_solver_iterations"].get<double>(), r["faulty_worlds"].get<int>());
   } catch (const std::exception& ex) {
     r["error"] = ex.what();
-    std::printf("  %s lanes %2d worlds %6d: %s\n", f32 ? "f32" : "f64", lanes, nworld, ex.what());
-    return r;
+    std::printf("  %s lanes %2d blocks/SM %d worlds %6d: %s\n", f32 ? "f32" : "f64", lanes,
+                blocks_per_sm, nworld, ex.what());
   }
-  const int substeps = scene.model.physics().substeps;
-  e->reset_worlds(scene.model.gravity_compensation(), 7);
-  // warm up, then enough launches for min_seconds
-  double t1 = e->time_steps(2, substeps, o.observe, 1000) / 2;
-  const int launches = std::clamp(static_cast<int>(std::ceil(o.min_seconds / std::max(t1, 1e-6))), 3, 200);
-  double best = 1e300;
-  for (int k = 0; k < o.rounds; ++k)
-    best = std::min(best, e->time_steps(launches, substeps, o.observe, 2000 + 1000 * k) / launches);
-  const double steps_per_s = static_cast<double>(nworld) * substeps / best;
-  r["substeps_per_launch"] = substeps;
-  r["launches"] = launches;
-  r["seconds_per_control_step"] = best;
-  r["world_steps_per_s"] = steps_per_s;
-  r["control_steps_per_s"] = nworld / best;
-  r["state_bytes_per_world"] = static_cast<double>(e->state_bytes()) / nworld;
-  r["model_bytes"] = e->model_bytes();
-  r["faulty_worlds"] = e->faulty_worlds();
-  std::printf("  %s lanes %2d blocks/SM %d worlds %6d: %10.0f world-steps/s  (%.3f ms per control "
-              "step of %d substeps, %.1f KB per world, %d faulty)\n",
-              f32 ? "f32" : "f64", lanes, blocks_per_sm, nworld, steps_per_s, best * 1e3,
-              substeps, e->state_bytes() / 1024.0 / nworld, r["faulty_worlds"].get<int>());
   std::fflush(stdout);
   return r;
 }
