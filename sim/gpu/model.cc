@@ -248,6 +248,44 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
     if (e != dof_Madr[i + 1])
       unsupported("unexpected mass matrix layout at dof " + std::to_string(i));
   }
+  // kinematic trees: a root dof (no parent) starts one, and every dof up to the next root must
+  // descend from it; otherwise all dofs count as one tree (factor_ld then runs in plain order)
+  {
+    tree_dofadr.clear();
+    bool contiguous = true;
+    int root = -1;
+    for (int i = 0; i < m->nv; ++i) {
+      if (m->dof_parentid[i] < 0) {
+        tree_dofadr.push_back(i);
+        root = i;
+      } else if (!is_ancestor_or_self(m, root, i)) {
+        contiguous = false;
+      }
+    }
+    if (!contiguous) tree_dofadr.assign(m->nv ? 1 : 0, 0);
+    tree_dofadr.push_back(m->nv);
+    s.ntree = static_cast<int>(tree_dofadr.size()) - 1;
+    s.maxtreedofs = 0;
+    for (int t = 0; t < s.ntree; ++t)
+      s.maxtreedofs = std::max(s.maxtreedofs, tree_dofadr[t + 1] - tree_dofadr[t]);
+  }
+
+  // dofs by depth in the dof tree (the length of their qM row - 1)
+  {
+    std::vector<int> ddepth(m->nv);
+    int maxd = 0;
+    for (int i = 0; i < m->nv; ++i) {
+      ddepth[i] = dof_Madr[i + 1] - dof_Madr[i] - 1;
+      maxd = std::max(maxd, ddepth[i]);
+    }
+    s.ndlevel = m->nv ? maxd + 1 : 0;
+    dlevel_adr.assign(s.ndlevel + 1, 0);
+    for (int i = 0; i < m->nv; ++i) dlevel_adr[ddepth[i] + 1]++;
+    for (int l = 0; l < s.ndlevel; ++l) dlevel_adr[l + 1] += dlevel_adr[l];
+    dlevel_dof.assign(m->nv, -1);
+    std::vector<int> fill(dlevel_adr.begin(), dlevel_adr.end() - 1);
+    for (int i = 0; i < m->nv; ++i) dlevel_dof[fill[ddepth[i]]++] = i;
+  }
   M_coladr.assign(m->nv + 1, 0);
   for (int e = 0; e < m->nM; ++e)
     if (M_col[e] != -1) M_coladr[M_col[e] + 1]++;

@@ -25,6 +25,9 @@ struct Sizes {
   int nq = 0, nv = 0, nu = 0, nbody = 0, njnt = 0, ngeom = 0, nsite = 0, ntendon = 0;
   int nM = 0;         // entries of the mass matrix in MuJoCo's sparse tree layout (dof_Madr)
   int nlevel = 0;     // depth of the body tree + 1 (the world is level 0)
+  int ndlevel = 0;    // depth of the dof tree + 1
+  int ntree = 0;      // kinematic trees (contiguous dof ranges that share no rows of M)
+  int maxtreedofs = 0;  // dofs of the largest tree
   int ntennz = 0;     // nonzeros of all fixed-tendon Jacobians
   int nactnnz = 0;    // nonzeros of all actuator moment rows
   int ncand = 0;      // constraint candidates (rows that can become active)
@@ -134,6 +137,9 @@ enum CandKind : int {
   X(dof_Madr, s.nv + 1, "first entry of the dof's row in qM (the diagonal); [nv] = nM")       \
   X(dof_simplenum, s.nv, "dofs of a simple body (M diagonal, constant)")                       \
   X(M_col, s.nM, "derived: column dof of each qM entry (the row's dof or an ancestor)")        \
+  X(tree_dofadr, s.ntree + 1, "derived: first dof of each kinematic tree; [ntree] = nv")      \
+  X(dlevel_adr, s.ndlevel + 1, "derived: start of each dof-tree level in dlevel_dof")         \
+  X(dlevel_dof, s.nv, "derived: dofs by depth (number of ancestor dofs), roots first")         \
   X(M_row, s.nM, "derived: row dof of each qM entry")                                         \
   X(M_coladr, s.nv + 1, "derived: start of each dof's below-diagonal column in M_colent")      \
   X(M_colent, s.nM - s.nv, "derived: qM entries of each column below the diagonal, last row first")   \

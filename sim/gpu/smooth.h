@@ -274,8 +274,9 @@ BIDEX_HD void crb(const Model<T>& m, const World<T>& d, Lanes ln) {
 
 // In-place L'DL factorisation in MuJoCo's tree layout (mj_factorI): dst = factor of src (src
 // may equal dst), diaginv = 1 / diag(D). Pivots below mjMINVAL are raised to it and reported.
-// Eliminates dofs from the last to the first; the ancestors' row updates of one dof run on
-// separate lanes.
+// Each tree eliminates its dofs from the last to the first, as MuJoCo does; different trees
+// share no rows, so they advance together (one dof of each per step), and the ancestor rows of
+// an eliminated dof are updated on separate lanes.
 template <class T>
 BIDEX_HD bool factor_ld(const Model<T>& m, const T* src, T* dst, T* diaginv, Lanes ln) {
   if (src != dst) {
@@ -283,34 +284,52 @@ BIDEX_HD bool factor_ld(const Model<T>& m, const T* src, T* dst, T* diaginv, Lan
     ln.sync();
   }
   bool floored = false;
-  for (int k = m.s.nv - 1; k >= 0; --k) {
-    const int adr = m.dof_Madr[k];
-    const int nanc = m.dof_Madr[k + 1] - adr - 1;
-    T dkk = dst[adr];
-    if (dkk < T(kMinVal)) {
-      dkk = T(kMinVal);
-      floored = true;
-    }
+  for (int step = 0; step < m.s.maxtreedofs; ++step) {
     // ancestor rows: M(i, :) -= M(k, :) M(k, i) / M(k, k)
-    for (int p = ln.id; p < nanc; p += ln.n) {
-      const T tmp = dst[adr + 1 + p] / dkk;
-      const int i = m.M_col[adr + 1 + p];
-      const int iadr = m.dof_Madr[i];
-      const int cnt = m.dof_Madr[i + 1] - iadr;
-      for (int t = 0; t < cnt; ++t) dst[iadr + t] -= dst[adr + 1 + p + t] * tmp;
+    for (int t = 0; t < m.s.ntree; ++t) {
+      const int k = m.tree_dofadr[t + 1] - 1 - step;
+      if (k < m.tree_dofadr[t]) continue;
+      const int adr = m.dof_Madr[k];
+      const int nanc = m.dof_Madr[k + 1] - adr - 1;
+      T dkk = dst[adr];
+      if (dkk < T(kMinVal)) {
+        dkk = T(kMinVal);
+        floored = true;
+      }
+      for (int p = ln.id; p < nanc; p += ln.n) {
+        const T tmp = dst[adr + 1 + p] / dkk;
+        const int i = m.M_col[adr + 1 + p];
+        const int iadr = m.dof_Madr[i];
+        const int cnt = m.dof_Madr[i + 1] - iadr;
+        for (int c = 0; c < cnt; ++c) dst[iadr + c] -= dst[adr + 1 + p + c] * tmp;
+      }
     }
     ln.sync();
-    // row k becomes L(k, :)
-    for (int p = ln.id; p < nanc; p += ln.n) dst[adr + 1 + p] /= dkk;
-    if (ln.id == 0) dst[adr] = dkk;
+    // rows k become L(k, :)
+    for (int t = 0; t < m.s.ntree; ++t) {
+      const int k = m.tree_dofadr[t + 1] - 1 - step;
+      if (k < m.tree_dofadr[t]) continue;
+      const int adr = m.dof_Madr[k];
+      const int nanc = m.dof_Madr[k + 1] - adr - 1;
+      const T dkk = g_max(dst[adr], T(kMinVal));
+      for (int p = ln.id; p < nanc; p += ln.n) dst[adr + 1 + p] /= dkk;
+    }
     ln.sync();
+    for (int t = ln.id; t < m.s.ntree; t += ln.n) {
+      const int k = m.tree_dofadr[t + 1] - 1 - step;
+      if (k >= m.tree_dofadr[t] && dst[m.dof_Madr[k]] < T(kMinVal)) dst[m.dof_Madr[k]] = T(kMinVal);
+    }
   }
+  ln.sync();
   for (int i = ln.id; i < m.s.nv; i += ln.n) diaginv[i] = T(1) / dst[m.dof_Madr[i]];
   ln.sync();
   return floored;
 }
 
-// x = (L'DL)^-1 y for a factor from factor_ld (x may equal y).
+// x = (L'DL)^-1 y for a factor from factor_ld (x may equal y). The dofs of one depth of the
+// dof tree are independent in both triangular solves, so each pass goes depth by depth with the
+// dofs of a depth on separate lanes (MuJoCo's order of operations per dof is kept: a dof's
+// column is gathered last row first, its row in ancestor order).
 template <class T>
 BIDEX_HD void solve_ld(const Model<T>& m, const T* L, const T* diaginv, T* x, const T* y,
                        Lanes ln) {
@@ -318,27 +337,33 @@ BIDEX_HD void solve_ld(const Model<T>& m, const T* L, const T* diaginv, T* x, co
     for (int i = ln.id; i < m.s.nv; i += ln.n) x[i] = y[i];
     ln.sync();
   }
-  // x <- L'^-1 x, leaves first; a dof's ancestors are updated on separate lanes
-  for (int i = m.s.nv - 1; i >= 0; --i) {
-    const T xi = x[i];
-    const int adr = m.dof_Madr[i];
-    const int nanc = m.dof_Madr[i + 1] - adr - 1;
-    if (xi != 0)
-      for (int p = ln.id; p < nanc; p += ln.n) x[m.M_col[adr + 1 + p]] -= L[adr + 1 + p] * xi;
+  // x <- L'^-1 x, deepest dofs first: x(j) -= L(i, j) x(i) over the descendants i of j
+  for (int l = m.s.ndlevel - 1; l >= 0; --l) {
+    for (int k = m.dlevel_adr[l] + ln.id; k < m.dlevel_adr[l + 1]; k += ln.n) {
+      const int j = m.dlevel_dof[k];
+      T t = x[j];
+      for (int c = m.M_coladr[j]; c < m.M_coladr[j + 1]; ++c) {
+        const int e = m.M_colent[c];
+        const T xi = x[m.M_row[e]];
+        if (xi != 0) t -= L[e] * xi;
+      }
+      x[j] = t;
+    }
     ln.sync();
   }
   // x <- D^-1 x
   for (int i = ln.id; i < m.s.nv; i += ln.n) x[i] *= diaginv[i];
   ln.sync();
-  // x <- L^-1 x, roots first
-  if (ln.id == 0) {
-    for (int i = 0; i < m.s.nv; ++i) {
+  // x <- L^-1 x, roots first: x(i) -= L(i, j) x(j) over the ancestors j of i
+  for (int l = 0; l < m.s.ndlevel; ++l) {
+    for (int k = m.dlevel_adr[l] + ln.id; k < m.dlevel_adr[l + 1]; k += ln.n) {
+      const int i = m.dlevel_dof[k];
       T t = x[i];
       for (int e = m.dof_Madr[i] + 1; e < m.dof_Madr[i + 1]; ++e) t -= L[e] * x[m.M_col[e]];
       x[i] = t;
     }
+    ln.sync();
   }
-  ln.sync();
 }
 
 // res = M x for M in the tree layout (res must not alias x).
