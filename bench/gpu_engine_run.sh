@@ -22,7 +22,8 @@ parity=0
 
 # build (CUDA code for the machine's GPU: sm_90 on H100 and H200 unless told otherwise; PyTorch's
 # CMake config compiles its CUDA flags for TORCH_CUDA_ARCH_LIST, kept to the same one)
-export BIDEX_CMAKE_ARGS="-DBIDEX_CUDA_ARCHITECTURES=${BIDEX_CUDA_ARCHITECTURES:-90} ${BIDEX_CMAKE_ARGS:-}"
+arch=${BIDEX_CUDA_ARCHITECTURES:-90}
+export BIDEX_CMAKE_ARGS="-DBIDEX_CUDA_ARCHITECTURES=$arch ${BIDEX_CMAKE_ARGS:-}"
 export TORCH_CUDA_ARCH_LIST=${TORCH_CUDA_ARCH_LIST:-9.0}
 scripts/offline-build.sh build "$deps" "$build" >"$out/gpu_engine_build.log" 2>&1 || {
   tail -30 "$out/gpu_engine_build.log"; exit 1; }
@@ -48,7 +49,8 @@ fi
 
 # throughput: lanes per world and grid cap compared at 16k worlds, then 1k..64k worlds
 if [[ $parts == *,bench,* ]]; then
-  timeout 1800 "$tool" bench --out "$out/gpu_engine_bench.json" 2>&1 | tee "$out/gpu_engine_bench.txt"
+  timeout 1800 "$tool" bench --out "$out/gpu_engine_bench.json" 2>&1 |
+    tee "$out/gpu_engine_bench.txt"
 fi
 echo "total: ${SECONDS}s"
 exit $parity

@@ -113,7 +113,8 @@ BIDEX_HD void reference_constraint(const Model<T>& m, const World<T>& d, Lanes l
   for (int c = ln.id; c < m.s.ncand; c += ln.n) {
     const T vel = row_dot(m, d, c, d.qvel);
     d.efc_vel[c] = vel;
-    d.efc_aref[c] = -m.cand_B[c] * vel - m.cand_K[c] * d.efc_imp[c] * (d.efc_pos[c] - m.cand_margin[c]);
+    const T violation = d.efc_pos[c] - m.cand_margin[c];
+    d.efc_aref[c] = -m.cand_B[c] * vel - m.cand_K[c] * d.efc_imp[c] * violation;
   }
   ln.sync();
 }
@@ -344,7 +345,8 @@ BIDEX_HD void fwd_constraint(const Model<T>& m, const World<T>& d, Lanes ln) {
     }
     ln.sync();
     const T cost_smooth = ln.sum(cs);
-    const T cost_warm = update_constraint(m, d, ln, nullptr) + gauss_cost(m, d, d.sol_Ma, d.qacc, ln);
+    const T cost_warm =
+        update_constraint(m, d, ln, nullptr) + gauss_cost(m, d, d.sol_Ma, d.qacc, ln);
     smooth = cost_warm > cost_smooth;
   }
   if (smooth) {

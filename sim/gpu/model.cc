@@ -336,7 +336,8 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
                     " is spatial; only fixed (joint) tendons are implemented");
       const int j = m->wrap_objid[adr + k];
       if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)
-        unsupported("tendon " + name_of(m, mjOBJ_TENDON, t) + " uses a joint that is not hinge or slide");
+        unsupported("tendon " + name_of(m, mjOBJ_TENDON, t) +
+                    " uses a joint that is not hinge or slide");
       ten_coef.push_back(m->wrap_prm[adr + k]);
       ten_dof.push_back(m->jnt_dofadr[j]);
       ten_qpos.push_back(m->jnt_qposadr[j]);
@@ -514,7 +515,8 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
         Cand cs = c;
         cs.kind = side < 0 ? kCandTendonLow : kCandTendonHigh;
         cs.prm[0] = m->tendon_range[2 * t + (side + 1) / 2];
-        for (int k = ten_adr[t]; k < ten_adr[t + 1]; ++k) cs.add(ten_dof[k], -side * ten_coef[k], 0);
+        for (int k = ten_adr[t]; k < ten_adr[t + 1]; ++k)
+          cs.add(ten_dof[k], -side * ten_coef[k], 0);
         cands.push_back(cs);
       }
     }

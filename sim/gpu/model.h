@@ -110,7 +110,7 @@ enum CandKind : int {
   X(cand_prm, s.ncand * 5, "derived: equality polynomial (eq rows) or range bound (limits)")   \
   X(cand_ref, s.ncand * 2, "derived: reference positions of the two coupled objects (eq rows)") \
   X(cand_c1, s.ncandnnz, "derived: Jacobian entry (eq rows: of object 1)")                     \
-  X(cand_c2, s.ncandnnz, "derived: eq rows: Jacobian entry of object 2 (scaled by -deriv when used)")
+  X(cand_c2, s.ncandnnz, "derived: eq rows: Jacobian entry of object 2 (times -deriv when used)")
 
 // Integer model arrays.
 #define BIDEX_GPU_MODEL_INTS(X)                                                                \
@@ -142,7 +142,8 @@ enum CandKind : int {
   X(dlevel_dof, s.nv, "derived: dofs by depth (number of ancestor dofs), roots first")         \
   X(M_row, s.nM, "derived: row dof of each qM entry")                                         \
   X(M_coladr, s.nv + 1, "derived: start of each dof's below-diagonal column in M_colent")      \
-  X(M_colent, s.nM - s.nv, "derived: qM entries of each column below the diagonal, last row first")   \
+  X(M_colent, s.nM - s.nv, "derived: qM entries of each column below the diagonal, last row "  \
+                           "first")                                                            \
   X(dof_subtreeadr, s.nv + 1, "derived: start of each dof's bodies in dof_subtreebody")     \
   X(dof_subtreebody, s.nsubtree, "derived: bodies moved by the dof (its body's subtree), "     \
                                  "increasing")                                                 \

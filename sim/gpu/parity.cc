@@ -518,7 +518,8 @@ ParityReport check_trajectory(const mjModel* m, const ModelArrays& arrays, Engin
     for (int i = 0; i < m->nv; ++i) d->qvel[i] = normal(rng[w], 0.1);
     if (!xfrc.empty()) std::copy(xfrc.begin(), xfrc.end(), d->xfrc_applied);
   }
-  const int periods = std::max(1, static_cast<int>(std::lround(seconds / (m->opt.timestep * hold))));
+  const int periods =
+      std::max(1, static_cast<int>(std::lround(seconds / (m->opt.timestep * hold))));
   Collector col(float32);
   for (int p = 0; p < periods; ++p) {
     // new random targets, the same in both

@@ -233,7 +233,8 @@ template <class T>
 BIDEX_HD void tendon(const Model<T>& m, const World<T>& d, Lanes ln) {
   for (int t = ln.id; t < m.s.ntendon; t += ln.n) {
     T len = 0;
-    for (int k = m.ten_adr[t]; k < m.ten_adr[t + 1]; ++k) len += m.ten_coef[k] * d.qpos[m.ten_qpos[k]];
+    for (int k = m.ten_adr[t]; k < m.ten_adr[t + 1]; ++k)
+      len += m.ten_coef[k] * d.qpos[m.ten_qpos[k]];
     d.ten_length[t] = len;
   }
   ln.sync();

@@ -22,7 +22,8 @@ BIDEX_HD void fwd_velocity(const Model<T>& m, const World<T>& d, Lanes ln) {
   }
   for (int a = ln.id; a < m.s.nu; a += ln.n) {
     T v = 0;
-    for (int k = m.act_adr[a]; k < m.act_adr[a + 1]; ++k) v += m.act_moment[k] * d.qvel[m.act_dof[k]];
+    for (int k = m.act_adr[a]; k < m.act_adr[a + 1]; ++k)
+      v += m.act_moment[k] * d.qvel[m.act_dof[k]];
     d.actuator_velocity[a] = v;
   }
   ln.sync();

@@ -210,7 +210,8 @@ json bench_one(const Scene& scene, bool f32, int lanes, int blocks_per_sm, int n
         std::clamp(static_cast<int>(std::ceil(o.min_seconds / std::max(t1, 1e-6))), 3, 200);
     double best = 1e300;
     for (int k = 0; k < o.rounds; ++k)
-      best = std::min(best, e->time_steps(launches, substeps, o.observe, 2000 + 1000 * k) / launches);
+      best = std::min(best,
+                      e->time_steps(launches, substeps, o.observe, 2000 + 1000 * k) / launches);
     const double steps_per_s = static_cast<double>(nworld) * substeps / best;
     r["substeps_per_launch"] = substeps;
     r["launches"] = launches;
@@ -285,7 +286,8 @@ int run_bench(const BenchOptions& o) {
       }
     }
     std::printf("%s: worlds at %d lanes, %d blocks per SM:\n", p.c_str(), lanes, cap);
-    for (int n : split_ints(o.worlds)) out["runs"].push_back(bench_one(scene, f32, lanes, cap, n, o));
+    for (int n : split_ints(o.worlds))
+      out["runs"].push_back(bench_one(scene, f32, lanes, cap, n, o));
     // time per stage, ns per world-step, at the sweep size
     auto e = make_device_engine(scene.arrays, o.sweep_worlds, f32, lanes);
     e->set_resident_blocks_per_sm(cap);
@@ -314,7 +316,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
 
   ParityOptions po;
-  CLI::App* parity = app.add_subcommand("parity", "every stage against MuJoCo 2.2.2 (exit 1 on a failure)");
+  CLI::App* parity =
+      app.add_subcommand("parity", "every stage against MuJoCo 2.2.2 (exit 1 on a failure)");
   parity->add_option("--engine", po.engine, "cuda or host")->capture_default_str();
   parity->add_option("--precision", po.precision, "f64, f32 or both")->capture_default_str();
   parity->add_option("--lanes", po.lanes, "lanes per world to check (cuda)")->capture_default_str();

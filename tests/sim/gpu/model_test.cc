@@ -47,7 +47,7 @@ std::string chain_with(const std::string& extra) {
 
 }  // namespace
 
-TEST_CASE("the two-hand scene's tables: one candidate row per coupling, friction dof and limit side",
+TEST_CASE("the two-hand scene's tables: a candidate row per coupling, friction dof, limit side",
           "[sim][gpu]") {
   const mjModel* full = bidex::test::two_hand_model().mj();
   mjModel* m = contact_free_copy(full);
