@@ -21,7 +21,10 @@ struct Result {
 
 Result bidex_run(const std::string& args) {
   Result r;
-  std::FILE* p = ::popen(("'" + std::string(BIDEX_BINARY) + "' " + args + " 2>&1").c_str(), "r");
+  // built with append: GCC 12 -O3 warns (-Werror=restrict) on "'" + std::string(...)
+  std::string cmd = "'";
+  cmd.append(BIDEX_BINARY).append("' ").append(args).append(" 2>&1");
+  std::FILE* p = ::popen(cmd.c_str(), "r");
   REQUIRE(p != nullptr);
   char buf[4096];
   size_t n;
