@@ -63,7 +63,7 @@ Trajectory run(const std::string& id, int nslot, int record, int total, int step
 TEST_CASE("random actions give finite results for every task at 3 and 16 slots",
           "[tasks][rollout]") {
   for (const char* id : kTaskIds) {
-    for (auto [nslot, steps] : {std::pair{3, 200}, std::pair{16, 80}}) {
+    for (auto [nslot, steps] : {std::pair{3, 300}, std::pair{16, 80}}) {
       INFO("task " << id << ", " << nslot << " slots, " << steps << " steps");
       auto env = make_env(id, nslot, 41);
       std::mt19937_64 rng(42);
