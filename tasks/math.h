@@ -82,7 +82,8 @@ inline void euler_xyz(double* out, const double* q) {
   const double r[3] = {roll, pitch, yaw};
   for (int k = 0; k < 3; ++k) {
     double a = std::fmod(r[k], 2 * M_PI);
-    out[k] = a < 0 ? a + 2 * M_PI : a;
+    if (a < 0) a += 2 * M_PI;
+    out[k] = a >= 2 * M_PI ? a - 2 * M_PI : a;  // a tiny negative angle rounds up to 2 pi
   }
 }
 
