@@ -177,6 +177,9 @@ CatchTask::CatchTask(const TaskSpec& spec, CatchParams params)
     t_pose_[0] = spec.term_index("pose_object1");
     t_pose_[1] = spec.term_index("pose_object2");
   }
+  // the start positions are the egg's (4 cm semi-axis): a larger object starts higher by the
+  // difference, so that no random orientation puts it inside a hand
+  lift_ = std::max(0.0, bounding_radius(p_.object.spec) - 0.04);
   t_bonus_ = spec.term_index("goal_bonus");
   t_fall_ = spec.term_index("fall_penalty");
   t_action_ = spec.term_index("action_penalty");
@@ -190,7 +193,15 @@ std::string numbered(const char* base, int i, int n) {
 
 sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
                                    const sim::PhysicsOptions& physics) const {
-  sim::SceneBuilder sb(physics);
+  // two objects can both sit in contact with the hands: room for their contact rows (one
+  // object fits the shared limits; measured by the two_catch_underarm soak)
+  sim::PhysicsOptions ph = physics;
+  if (nobj_ > 1) {
+    ph.njmax += 64;
+    ph.nconmax += 16;
+    ph.nstack += 12000;
+  }
+  sim::SceneBuilder sb(ph);
   const auto base = spec().free_base ? sim::Base::kFree : sim::Base::kFixed;
   auto pose = [](const CatchParams::HandPose& h) {
     return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
@@ -244,6 +255,7 @@ void CatchTask::reset(TaskSlot& t) const {
   for (int i = 0; i < nobj_; ++i) {
     double* q = d->qpos + obj_[i].qpos;
     for (int k = 0; k < 3; ++k) q[k] = p_.objects[i].start[k] + noise[k];
+    q[2] += lift_;
     for (int k = 0; k < 4; ++k) q[3 + k] = qo[k];
     auto& goal = t.task->goal[i];
     for (int k = 0; k < 3; ++k) goal[k] = p_.objects[i].goal[k];

@@ -96,6 +96,7 @@ class CatchTask : public Task {
     int body = -1, qpos = -1, mocap = -1, root_tree = -1;
   };
   std::vector<ObjectSlots> obj_;
+  double lift_ = 0;  // start height added for objects larger than the egg (see README)
   int t_pose_[2] = {-1, -1}, t_bonus_ = -1, t_fall_ = -1, t_action_ = -1;
 };
 

@@ -1,5 +1,6 @@
 #include "tasks/objects.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -17,6 +18,18 @@ double object_volume(const sim::ObjectSpec& o) {
     case Shape::kSphere: return 4.0 / 3.0 * M_PI * s[0] * s[0] * s[0];
     case Shape::kCapsule: return M_PI * s[0] * s[0] * 2 * s[1] + 4.0 / 3.0 * M_PI * s[0] * s[0] * s[0];
     case Shape::kEllipsoid: return 4.0 / 3.0 * M_PI * s[0] * s[1] * s[2];
+    case Shape::kMjcf: return 0;
+  }
+  return 0;
+}
+
+double bounding_radius(const sim::ObjectSpec& o) {
+  const auto& s = o.size;
+  switch (o.shape) {
+    case Shape::kBox: return std::sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    case Shape::kSphere: return s[0];
+    case Shape::kCapsule: return s[0] + s[1];
+    case Shape::kEllipsoid: return std::max({s[0], s[1], s[2]});
     case Shape::kMjcf: return 0;
   }
   return 0;
@@ -42,6 +55,7 @@ ObjectChoice object_preset(const std::string& type, const std::string& file,
   } else if (type == "pen") {  // capsule radius 8 mm, 20 cm between the cap centres
     o.shape = Shape::kCapsule;
     o.size = {0.008, 0.1, 0};
+    o.damping = 0.01;  // as the egg: a thin capsule can otherwise spin up about its axis
     o.rgba = {0.2, 0.2, 0.7, 1};
   } else if (type == "ball") {  // 7 cm ball (not in the original; our choice)
     o.shape = Shape::kSphere;

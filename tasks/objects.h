@@ -29,6 +29,8 @@ ObjectChoice object_preset(const std::string& type, const std::string& file = ""
 ObjectChoice parse_object(const YamlView& v);
 // A goal marker drawn like the object (an mjcf object gets a small sphere), never colliding.
 sim::ObjectSpec goal_marker(const ObjectChoice& object, const std::string& name);
+// Radius of the smallest sphere about the object's origin that holds it (0 for mjcf objects).
+double bounding_radius(const sim::ObjectSpec& o);
 // Volume (m^3) of a primitive object.
 double object_volume(const sim::ObjectSpec& o);
 

@@ -40,7 +40,7 @@ struct BadYaml {
   const char* actual;
 };
 
-const std::string kSecondObject = "  - {start: [0, -0.78, 0.54], goal: [0, -0.38, 0.54]}\n";
+const std::string kSecondObject = "  - {start: [0, -0.78, 0.55], goal: [0, -0.38, 0.54]}\n";
 
 const std::vector<BadYaml>& bad_yamls() {
   static const std::vector<BadYaml> cases = {
@@ -81,7 +81,7 @@ const std::vector<BadYaml>& bad_yamls() {
        "a penalty <= 0", "5"},
       {"two objects for a one-object task", "catch_underarm",
        [](std::string t) {
-         const std::string one = "  - {start: [0, -0.39, 0.54], goal: [0, -0.79, 0.54]}\n";
+         const std::string one = "  - {start: [0, -0.39, 0.55], goal: [0, -0.79, 0.54]}\n";
          return edit_once(t, one, one + kSecondObject);
        },
        "objects", "1 object(s) for catch_underarm", "2 entries"},

@@ -253,13 +253,12 @@ TEST_CASE("reset follows edited YAML ranges without rotations and with wider noi
   check_coverage(cov, {0, 0, true, true});
 }
 
-// Findings for the lead (see the test report): reset states that the physics cannot start from
-// cleanly. Tagged [!mayfail]: they fail today and document the problem until it is decided.
+// Reset states the physics must start from cleanly.
 
-// two_catch_underarm: with both eggs resting in the palms (position noise down to -1 cm), the
-// contacts of a reset state need more constraint rows than configs/sim/physics.yaml's njmax (128):
-// MuJoCo warns (constraint buffer full) and the batch faults the slot on its first step.
-TEST_CASE("two_catch_underarm reset states fit the constraint buffer", "[tasks][reset][!mayfail]") {
+// two_catch_underarm: both eggs can rest in the palms at once; their contacts must fit the
+// scene's constraint rows (more than one-object scenes get), or MuJoCo warns (constraint buffer
+// full) and the batch faults the slot on its first step.
+TEST_CASE("two_catch_underarm reset states fit the constraint buffer", "[tasks][reset]") {
   auto env = make_env("two_catch_underarm", 256, 1);
   const mjModel* m = env->model().mj();
   int full = 0;
@@ -276,10 +275,10 @@ TEST_CASE("two_catch_underarm reset states fit the constraint buffer", "[tasks][
   CHECK(st.faults == 0);
 }
 
-// Every task: no object starts more than 5 mm inside a hand. catch_over2underarm's egg starts
-// 13 mm inside the right hand's middle and ring fingertips and leaves at about 1 m/s on the first
-// step; with the 1 cm position noise the eggs of the other tasks start up to ~16 mm in the palm.
-TEST_CASE("objects do not start inside a hand", "[tasks][reset][!mayfail]") {
+// Every task: no object starts more than 5 mm inside a hand (at the original's start heights
+// catch_over2underarm's egg started 13 mm inside the upright fingertips and left at about 1 m/s;
+// with the 1 cm position noise the other eggs started up to ~16 mm in the palm).
+TEST_CASE("objects do not start inside a hand", "[tasks][reset]") {
   for (const auto& f : task_facts()) {
     INFO("task " << f.id);
     auto env = make_env(f.id, 64, 3);

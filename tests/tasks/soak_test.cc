@@ -55,10 +55,6 @@ TEST_CASE("soak: catch_over2underarm: 100k random slot-steps without a fault", "
 TEST_CASE("soak: catch_abreast: 100k random slot-steps without a fault", "[tasks][soak]") {
   soak("catch_abreast");
 }
-// Fails today ([!mayfail], reported to the lead): some reset states of two_catch_underarm need
-// more constraint rows than njmax (see "two_catch_underarm reset states fit the constraint
-// buffer" in reset_test.cc); those slots fault on their first step.
-TEST_CASE("soak: two_catch_underarm: 100k random slot-steps without a fault",
-          "[tasks][soak][!mayfail]") {
+TEST_CASE("soak: two_catch_underarm: 100k random slot-steps without a fault", "[tasks][soak]") {
   soak("two_catch_underarm");
 }
