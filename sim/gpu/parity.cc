@@ -443,12 +443,9 @@ mjModel* contact_free_copy(const mjModel* m) {
   return c;
 }
 
-ParityReport check_forward(const mjModel* m, const ModelArrays& arrays, Engine& engine,
-                           uint64_t seed, bool float32) {
-  ParityReport rep;
-  rep.engine = engine.describe();
-  rep.check = "forward";
-  const double t0 = seconds_now();
+// one MuJoCo reference per world of `engine`, each in a random state that is also put into the
+// engine's world and uploaded
+static std::vector<DataPtr> random_worlds(const mjModel* m, Engine& engine, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::vector<DataPtr> ref;
   for (int w = 0; w < engine.nworld(); ++w) {
@@ -457,6 +454,16 @@ ParityReport check_forward(const mjModel* m, const ModelArrays& arrays, Engine& 
     put_world(m, ref.back().get(), engine.mirror().world(w));
   }
   engine.upload();
+  return ref;
+}
+
+ParityReport check_forward(const mjModel* m, const ModelArrays& arrays, Engine& engine,
+                           uint64_t seed, bool float32) {
+  ParityReport rep;
+  rep.engine = engine.describe();
+  rep.check = "forward";
+  const double t0 = seconds_now();
+  std::vector<DataPtr> ref = random_worlds(m, engine, seed);
   engine.forward();
   engine.download();
   for (auto& d : ref) mj_forward(m, d.get());
@@ -473,14 +480,7 @@ ParityReport check_step(const mjModel* m, const ModelArrays& arrays, Engine& eng
   rep.engine = engine.describe();
   rep.check = "step";
   const double t0 = seconds_now();
-  std::mt19937_64 rng(seed);
-  std::vector<DataPtr> ref;
-  for (int w = 0; w < engine.nworld(); ++w) {
-    ref.emplace_back(mj_makeData(m));
-    random_state(m, rng, ref.back().get());
-    put_world(m, ref.back().get(), engine.mirror().world(w));
-  }
-  engine.upload();
+  std::vector<DataPtr> ref = random_worlds(m, engine, seed);
   engine.step(1);
   engine.download();
   Collector col(float32);
