@@ -128,9 +128,6 @@ struct Data {
   }
 };
 
-// Bytes of one world's fields in precision T.
-size_t world_bytes(const Sizes& s, size_t real_size);
-
 // Bytes of the block that holds every field of `nworld` worlds (each field 16-byte aligned).
 template <class T>
 size_t layout_bytes(const Sizes& s, int nworld);
