@@ -41,7 +41,22 @@ template <class Src>
 std::vector<double> reals(const Src* p, int n) {
   return std::vector<double>(p, p + n);
 }
-std::vector<int> ints(const int* p, int n) { return std::vector<int>(p, p + n); }
+template <class Src>
+std::vector<int> ints(const Src* p, int n) {
+  return std::vector<int>(p, p + n);
+}
+
+// Groups items 0..n-1 by their key in [0, nkey), keeping their order: the items of key k are
+// ent[adr[k]] .. ent[adr[k + 1] - 1].
+void group_by(const std::vector<int>& key, int nkey, std::vector<int>& adr,
+              std::vector<int>& ent) {
+  adr.assign(nkey + 1, 0);
+  for (int k : key) adr[k + 1]++;
+  for (int k = 0; k < nkey; ++k) adr[k + 1] += adr[k];
+  ent.assign(key.size(), -1);
+  std::vector<int> fill(adr.begin(), adr.end() - 1);
+  for (size_t i = 0; i < key.size(); ++i) ent[fill[key[i]]++] = static_cast<int>(i);
+}
 
 bool disabled(const mjModel* m, int flag) { return (m->opt.disableflags & flag) != 0; }
 
@@ -175,8 +190,7 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
   body_jntadr = ints(m->body_jntadr, m->nbody);
   body_dofnum = ints(m->body_dofnum, m->nbody);
   body_dofadr = ints(m->body_dofadr, m->nbody);
-  body_sameframe.resize(m->nbody);
-  for (int b = 0; b < m->nbody; ++b) body_sameframe[b] = m->body_sameframe[b];
+  body_sameframe = ints(m->body_sameframe, m->nbody);
 
   // subtree masses, accumulated leaves first as mj_comPos does
   body_subtreemass.assign(m->nbody, 0.0);
@@ -197,14 +211,7 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
   std::vector<int> depth(m->nbody, 0);
   for (int b = 1; b < m->nbody; ++b) depth[b] = depth[m->body_parentid[b]] + 1;
   s.nlevel = 1 + *std::max_element(depth.begin(), depth.end());
-  level_adr.assign(s.nlevel + 1, 0);
-  for (int b = 0; b < m->nbody; ++b) level_adr[depth[b] + 1]++;
-  for (int l = 0; l < s.nlevel; ++l) level_adr[l + 1] += level_adr[l];
-  level_body.resize(m->nbody);
-  {
-    std::vector<int> fill(level_adr.begin(), level_adr.end() - 1);
-    for (int b = 0; b < m->nbody; ++b) level_body[fill[depth[b]]++] = b;
-  }
+  group_by(depth, s.nlevel, level_adr, level_body);
 
   // children, highest id first
   child_adr.assign(m->nbody + 1, 0);
@@ -279,12 +286,7 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
       maxd = std::max(maxd, ddepth[i]);
     }
     s.ndlevel = m->nv ? maxd + 1 : 0;
-    dlevel_adr.assign(s.ndlevel + 1, 0);
-    for (int i = 0; i < m->nv; ++i) dlevel_adr[ddepth[i] + 1]++;
-    for (int l = 0; l < s.ndlevel; ++l) dlevel_adr[l + 1] += dlevel_adr[l];
-    dlevel_dof.assign(m->nv, -1);
-    std::vector<int> fill(dlevel_adr.begin(), dlevel_adr.end() - 1);
-    for (int i = 0; i < m->nv; ++i) dlevel_dof[fill[ddepth[i]]++] = i;
+    group_by(ddepth, s.ndlevel, dlevel_adr, dlevel_dof);
   }
   M_coladr.assign(m->nv + 1, 0);
   for (int e = 0; e < m->nM; ++e)
@@ -315,13 +317,11 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
   geom_pos = reals(m->geom_pos, 3 * m->ngeom);
   geom_quat = reals(m->geom_quat, 4 * m->ngeom);
   geom_bodyid = ints(m->geom_bodyid, m->ngeom);
-  geom_sameframe.resize(m->ngeom);
-  for (int g = 0; g < m->ngeom; ++g) geom_sameframe[g] = m->geom_sameframe[g];
+  geom_sameframe = ints(m->geom_sameframe, m->ngeom);
   site_pos = reals(m->site_pos, 3 * m->nsite);
   site_quat = reals(m->site_quat, 4 * m->nsite);
   site_bodyid = ints(m->site_bodyid, m->nsite);
-  site_sameframe.resize(m->nsite);
-  for (int i = 0; i < m->nsite; ++i) site_sameframe[i] = m->site_sameframe[i];
+  site_sameframe = ints(m->site_sameframe, m->nsite);
 
   // fixed tendons
   tendon_stiffness = reals(m->tendon_stiffness, m->ntendon);
@@ -354,8 +354,8 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
   actuator_gear.assign(m->nu, 0.0);
   actuator_gaintype = ints(m->actuator_gaintype, m->nu);
   actuator_biastype = ints(m->actuator_biastype, m->nu);
-  actuator_ctrllimited.resize(m->nu);
-  actuator_forcelimited.resize(m->nu);
+  actuator_ctrllimited = ints(m->actuator_ctrllimited, m->nu);
+  actuator_forcelimited = ints(m->actuator_forcelimited, m->nu);
   act_trn.assign(m->nu, 0);
   act_obj.assign(m->nu, -1);
   act_adr.assign(1, 0);
@@ -370,8 +370,6 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
       actuator_gainprm[3 * a + k] = m->actuator_gainprm[mjNGAIN * a + k];
       actuator_biasprm[3 * a + k] = m->actuator_biasprm[mjNBIAS * a + k];
     }
-    actuator_ctrllimited[a] = m->actuator_ctrllimited[a];
-    actuator_forcelimited[a] = m->actuator_forcelimited[a];
     const double gear = m->actuator_gear[6 * a];
     actuator_gear[a] = gear;
     const int id = m->actuator_trnid[2 * a];
@@ -397,14 +395,7 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
     act_adr.push_back(static_cast<int>(act_dof.size()));
   }
   s.nactnnz = static_cast<int>(act_dof.size());
-  dof_actadr.assign(m->nv + 1, 0);
-  for (int d : act_dof) dof_actadr[d + 1]++;
-  for (int i = 0; i < m->nv; ++i) dof_actadr[i + 1] += dof_actadr[i];
-  dof_actent.assign(s.nactnnz, -1);
-  {
-    std::vector<int> fill(dof_actadr.begin(), dof_actadr.end() - 1);
-    for (int k = 0; k < s.nactnnz; ++k) dof_actent[fill[act_dof[k]]++] = k;
-  }
+  group_by(act_dof, m->nv, dof_actadr, dof_actent);
 
   // constraint candidates, in MuJoCo's row order
   std::vector<Cand> cands;
@@ -580,14 +571,7 @@ ModelArrays::ModelArrays(const mjModel* m, EngineOptions options_in) : options(o
   }
   s.nhent = static_cast<int>(hent_addr.size());
   s.nhcon = static_cast<int>(hcon_a.size());
-  dof_candadr.assign(m->nv + 1, 0);
-  for (int d : cand_dof) dof_candadr[d + 1]++;
-  for (int i = 0; i < m->nv; ++i) dof_candadr[i + 1] += dof_candadr[i];
-  dof_candent.assign(s.ncandnnz, -1);
-  {
-    std::vector<int> fill(dof_candadr.begin(), dof_candadr.end() - 1);
-    for (int k = 0; k < s.ncandnnz; ++k) dof_candent[fill[cand_dof[k]]++] = k;
-  }
+  group_by(cand_dof, m->nv, dof_candadr, dof_candent);
   s.ndofcand = s.ncandnnz;
 
   // every table has the length its declaration states
