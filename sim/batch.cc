@@ -40,12 +40,12 @@ bool all_finite(const double* x, int n) {
   return true;
 }
 
+}  // namespace
+
 double uniform(std::mt19937_64& rng, double lo, double hi) {
-  double u = static_cast<double>(rng() >> 11) * 0x1.0p-53;
+  const double u = static_cast<double>(rng() >> 11) * 0x1.0p-53;
   return lo + (hi - lo) * u;
 }
-
-}  // namespace
 
 SimBatch::SimBatch(const SimModel& model, int nslot, BatchOptions options)
     : model_(&model), nslot_(nslot), seed_(options.seed) {

@@ -149,6 +149,10 @@ void update_base_wrench(const SimModel& model, mjData* d, const double* wrench);
 // a change across a step is a kFaultMujocoWarn.
 int warning_total(const mjData* d);
 
+// Uniform in [lo, hi) from 53 bits of a slot's stream: the same on every platform (unlike
+// std::uniform_real_distribution), so seeded results do not depend on the standard library.
+double uniform(std::mt19937_64& rng, double lo, double hi);
+
 // Writes uniformly random inputs into every slot's rows from its own stream: actuator targets
 // over their control ranges, base forces/torques up to the given magnitudes.
 void random_inputs(const SimModel& model, SimBatch& batch, double max_force, double max_torque);

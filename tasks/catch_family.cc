@@ -322,11 +322,9 @@ void CatchTask::observe(const TaskSlot& t, float* obs) const {
   observe_hand(hands_[0], v, t.task->action.data(), obs);
   observe_hand(hands_[1], v, t.task->action.data() + per_hand, obs + hand_obs);
   float* o = obs + 2 * hand_obs;
-  auto put_quat = [&](const double* q) {  // (w, x, y, z) -> (x, y, z, w)
-    *o++ = static_cast<float>(q[1]);
-    *o++ = static_cast<float>(q[2]);
-    *o++ = static_cast<float>(q[3]);
-    *o++ = static_cast<float>(q[0]);
+  auto put_quat = [&](const double* q) {
+    math::put_quat_xyzw(o, q);
+    o += 4;
   };
   for (int i = 0; i < nobj_; ++i) {
     const int b = obj_[i].body;
@@ -343,7 +341,7 @@ void CatchTask::observe(const TaskSlot& t, float* obs) const {
     put_quat(g.data() + 3);
     double gc[4], diff[4];
     math::quat_conj(gc, g.data() + 3);
-    math::quat_mul(diff, quat, gc);
+    math::mul_quat(diff, quat, gc);
     put_quat(diff);
   }
 }

@@ -94,15 +94,6 @@ void body_velocity(const sim::SlotView& v, int body, int root_tree, double* lin,
   }
 }
 
-namespace {
-inline void put_quat_xyzw(float* out, const double* q) {
-  out[0] = static_cast<float>(q[1]);
-  out[1] = static_cast<float>(q[2]);
-  out[2] = static_cast<float>(q[3]);
-  out[3] = static_cast<float>(q[0]);
-}
-}  // namespace
-
 void observe_hand(const HandRig& r, const sim::SlotView& v, const float* actions, float* out) {
   const size_t nj = r.qpos_adr.size();
   float* o = out;
@@ -121,7 +112,7 @@ void observe_hand(const HandRig& r, const sim::SlotView& v, const float* actions
     double lin[3], ang[3];
     body_velocity(v, b, r.root_tree, lin, ang);
     for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(v.xpos[3 * b + k]);
-    put_quat_xyzw(o, v.xquat + 4 * b);
+    math::put_quat_xyzw(o, v.xquat + 4 * b);
     o += 4;
     for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(lin[k]);
     for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(ang[k]);
@@ -139,27 +130,6 @@ void observe_hand(const HandRig& r, const sim::SlotView& v, const float* actions
   }
   const size_t na = r.actuator.size() + (r.free_base ? 6 : 0);
   for (size_t k = 0; k < na; ++k) *o++ = actions[k];
-}
-
-void palm_point(const HandRig& r, const sim::SlotView& v, double* out) {
-  const double local[3] = {0, -0.02, 0.08};
-  math::frame_point(out, v.xpos + 3 * r.palm_body, v.xquat + 4 * r.palm_body, local);
-}
-
-void fingertip_points(const HandRig& r, const sim::SlotView& v, double (*out)[3]) {
-  const double local[3] = {0, 0, 0.02};
-  for (int t = 0; t < kTips; ++t) {
-    const int b = r.tip_body[t];
-    math::frame_point(out[t], v.xpos + 3 * b, v.xquat + 4 * b, local);
-  }
-}
-
-double fingertip_distance_sum(const HandRig& r, const sim::SlotView& v, const double* p) {
-  double tips[kTips][3];
-  fingertip_points(r, v, tips);
-  double s = 0;
-  for (int t = 0; t < kTips; ++t) s += math::dist3(tips[t], p);
-  return s;
 }
 
 std::vector<double> sample_joint_noise(const HandRig& r, double noise, std::mt19937_64& rng) {

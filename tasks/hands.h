@@ -1,6 +1,6 @@
 // The hand half of every task: where each hand's joints, fingertips, palm and base live in the
 // compiled scene, and the per-slot functions shared by all tasks: actions -> joint targets and
-// base forces, the hand block of the observation, joint resets, reward points.
+// base forces, the hand block of the observation, joint resets.
 #pragma once
 
 #include <array>
@@ -55,13 +55,6 @@ void observe_hand(const HandRig& rig, const sim::SlotView& v, const float* actio
 
 // World-frame linear velocity at a body's origin and angular velocity, from the batch's cvel.
 void body_velocity(const sim::SlotView& v, int body, int root_tree, double* lin, double* ang);
-
-// Reward points of the original: the palm point (palm origin + 0.08 m along the palm's z - 0.02 m
-// along its y) and the fingertip points (each distal origin + 0.02 m along its z).
-void palm_point(const HandRig& rig, const sim::SlotView& v, double* out);
-void fingertip_points(const HandRig& rig, const sim::SlotView& v, double (*out)[3]);
-// Sum over the five fingertip points of the distance to `p`.
-double fingertip_distance_sum(const HandRig& rig, const sim::SlotView& v, const double* p);
 
 // Joint reset noise of the original: q_j = noise (l_j + (u_j - l_j) r_j), r ~ U(-1, 1), per
 // joint, then clamped into the joint range (the original can leave the range). 24 values.

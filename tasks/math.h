@@ -1,6 +1,8 @@
-// Small vector and quaternion helpers for per-slot task math. Plain arrays of doubles, no
-// MuJoCo types, so the same functions can be compiled for the GPU engine later. Quaternions are
-// (w, x, y, z), MuJoCo's order; observations write them as (x, y, z, w) (see tasks/README.md).
+// Vector and quaternion helpers for per-slot task math: plain arrays of doubles, no MuJoCo
+// types. The basic operations are the GPU engine's (sim/gpu/spatial.h, host and device code);
+// what only tasks need (rotation distance, Euler angles, the original's random orientation)
+// is here. Quaternions are (w, x, y, z), MuJoCo's order; observations write them as
+// (x, y, z, w) (put_quat_xyzw, tasks/README.md).
 #pragma once
 
 #include <algorithm>
@@ -8,32 +10,22 @@
 #include <cstdint>
 #include <random>
 
+#include "sim/batch.h"
+#include "sim/gpu/spatial.h"
+
 namespace bidex::tasks::math {
 
-inline double dot3(const double* a, const double* b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+namespace gpu = sim::gpu;
+
+using gpu::cross3;
+using gpu::dot3;
+using gpu::mul_quat;  // (out, a, b): out = a * b, may alias
+using sim::uniform;
+
 inline double norm3(const double* a) { return std::sqrt(dot3(a, a)); }
 inline double dist3(const double* a, const double* b) {
   const double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
   return norm3(d);
-}
-inline void cross3(double* out, const double* a, const double* b) {
-  const double c[3] = {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                       a[0] * b[1] - a[1] * b[0]};
-  out[0] = c[0];
-  out[1] = c[1];
-  out[2] = c[2];
-}
-
-// out = a * b (Hamilton product); out may alias a or b.
-inline void quat_mul(double* out, const double* a, const double* b) {
-  const double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
-  const double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
-  const double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
-  const double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
-  out[0] = w;
-  out[1] = x;
-  out[2] = y;
-  out[3] = z;
 }
 inline void quat_conj(double* out, const double* q) {
   out[0] = q[0];
@@ -41,34 +33,25 @@ inline void quat_conj(double* out, const double* q) {
   out[2] = -q[2];
   out[3] = -q[3];
 }
-// out = R(q) v; out may alias v.
-inline void quat_rotate(double* out, const double* q, const double* v) {
-  // v' = v + 2 w (u x v) + 2 u x (u x v), u = vector part
-  const double* u = q + 1;
-  double t[3], c[3];
-  cross3(t, u, v);
-  for (int k = 0; k < 3; ++k) t[k] *= 2;
-  cross3(c, u, t);
-  for (int k = 0; k < 3; ++k) out[k] = v[k] + q[0] * t[k] + c[k];
-}
 // The point at `local` in a body frame at (pos, quat), in world coordinates.
 inline void frame_point(double* out, const double* pos, const double* quat, const double* local) {
-  quat_rotate(out, quat, local);
+  gpu::rot_vec_quat(out, local, quat);
   for (int k = 0; k < 3; ++k) out[k] += pos[k];
 }
-inline void quat_axis_angle(double* out, const double* axis, double angle) {
-  const double s = std::sin(angle / 2);
-  out[0] = std::cos(angle / 2);
-  out[1] = axis[0] * s;
-  out[2] = axis[1] * s;
-  out[3] = axis[2] * s;
+
+// An observation's quaternion: (w, x, y, z) written as (x, y, z, w), the original's order.
+inline void put_quat_xyzw(float* out, const double* q) {
+  out[0] = static_cast<float>(q[1]);
+  out[1] = static_cast<float>(q[2]);
+  out[2] = static_cast<float>(q[3]);
+  out[3] = static_cast<float>(q[0]);
 }
 
 // The rotation between two orientations: 2 asin(min(|vec(a * conj(b))|, 1)), in [0, pi].
 inline double rot_distance(const double* a, const double* b) {
   double bc[4], d[4];
   quat_conj(bc, b);
-  quat_mul(d, a, bc);
+  mul_quat(d, a, bc);
   return 2.0 * std::asin(std::min(norm3(d + 1), 1.0));
 }
 
@@ -87,22 +70,15 @@ inline void euler_xyz(double* out, const double* q) {
   }
 }
 
-// Uniform in [lo, hi) from 53 random bits (the same on every platform, unlike
-// std::uniform_real_distribution).
-inline double uniform(std::mt19937_64& rng, double lo, double hi) {
-  const double u = static_cast<double>(rng() >> 11) * 0x1.0p-53;
-  return lo + (hi - lo) * u;
-}
-
 // The original's random orientation: rotation about x by pi r0, then about y by pi r1,
 // r ~ U(-1, 1), composed as q_x * q_y.
 inline void random_rotation(double* out, std::mt19937_64& rng) {
   const double r0 = uniform(rng, -1, 1), r1 = uniform(rng, -1, 1);
   const double ax[3] = {1, 0, 0}, ay[3] = {0, 1, 0};
   double qx[4], qy[4];
-  quat_axis_angle(qx, ax, M_PI * r0);
-  quat_axis_angle(qy, ay, M_PI * r1);
-  quat_mul(out, qx, qy);
+  gpu::axis_angle_quat(qx, ax, M_PI * r0);
+  gpu::axis_angle_quat(qy, ay, M_PI * r1);
+  mul_quat(out, qx, qy);
 }
 
 }  // namespace bidex::tasks::math
