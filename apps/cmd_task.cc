@@ -15,7 +15,6 @@
 #include "core/files.h"
 #include "core/progress.h"
 #include "tasks/env.h"
-#include "tasks/math.h"
 #include "tasks/registry.h"
 
 namespace bidex::apps {
@@ -45,8 +44,6 @@ void print_layout(const char* title, const tasks::Layout& l) {
                 s.goal ? "(goal) " : "", s.doc.c_str());
 }
 
-}  // namespace
-
 json task_spec_json(const tasks::TaskSpec& sp) {
   json agents = json::array();
   for (auto& a : sp.agents) agents.push_back({{"name", a.name}, {"obs", a.obs}, {"act", a.act}});
@@ -73,6 +70,8 @@ json task_spec_json(const tasks::TaskSpec& sp) {
           {"reward_terms", terms},
           {"default_config", tasks::default_task_config(sp.id)}};
 }
+
+}  // namespace
 
 void add_info_command(CLI::App& app) {
   struct Opts {
@@ -156,8 +155,7 @@ void add_play_command(CLI::App& app) {
     std::mt19937_64 rng(o->seed);
     Progress bar("play", static_cast<int64_t>(o->steps) * env.nslot(), "slot-steps");
     for (int i = 0; i < o->steps; ++i) {
-      if (o->policy == "random")
-        for (auto& a : actions) a = static_cast<float>(tasks::math::uniform(rng, -1, 1));
+      if (o->policy == "random") tasks::random_actions(actions, rng);
       env.step(actions);
       for (int s = 0; s < env.nslot(); ++s)
         for (int k = 0; k <= nt; ++k) {

@@ -9,7 +9,6 @@
 #include "bench/sim_bench.h"
 #include "core/progress.h"
 #include "tasks/env.h"
-#include "tasks/math.h"
 #include "tasks/registry.h"
 
 namespace bidex::bench {
@@ -24,15 +23,11 @@ mjtNum clock_ms() {
       .count();
 }
 
-void random_actions(std::vector<float>& a, std::mt19937_64& rng) {
-  for (auto& x : a) x = static_cast<float>(tasks::math::uniform(rng, -1, 1));
-}
-
 // Steps until min_seconds of timed stepping; actions are drawn outside the timed part.
 json measure(tasks::TaskEnv& env, const TaskBenchConfig& cfg, std::mt19937_64& rng) {
   std::vector<float> a(static_cast<size_t>(env.nslot()) * env.act_dim());
   for (int i = 0; i < cfg.warmup_steps; ++i) {
-    random_actions(a, rng);
+    tasks::random_actions(a, rng);
     env.step(a);
   }
   env.take_stats();
@@ -40,7 +35,7 @@ json measure(tasks::TaskEnv& env, const TaskBenchConfig& cfg, std::mt19937_64& r
   double stepping = 0;
   int64_t steps = 0;
   while (stepping < cfg.min_seconds) {
-    random_actions(a, rng);
+    tasks::random_actions(a, rng);
     auto t0 = std::chrono::steady_clock::now();
     env.step(a);
     stepping += seconds_since(t0);
@@ -71,7 +66,7 @@ json profile(tasks::TaskEnv& env, const TaskBenchConfig& cfg, std::mt19937_64& r
   env.set_profile(true);
   double stepping = 0;
   while (stepping < cfg.min_seconds / 2) {
-    random_actions(a, rng);
+    tasks::random_actions(a, rng);
     auto t0 = std::chrono::steady_clock::now();
     env.step(a);
     stepping += seconds_since(t0);

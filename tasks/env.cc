@@ -22,6 +22,10 @@ double now() {
 }
 }  // namespace
 
+void random_actions(std::vector<float>& actions, std::mt19937_64& rng) {
+  for (auto& a : actions) a = static_cast<float>(sim::uniform(rng, -1, 1));
+}
+
 TaskEnv::TaskEnv(std::unique_ptr<Task> task, const EnvOptions& o) : task_(std::move(task)) {
   if (o.nslot <= 0)
     throw ConfigError("", "nslot", "a slot count > 0", std::to_string(o.nslot));

@@ -8,6 +8,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,9 @@ struct StageProfile {
   double actions = 0;  // thread-seconds in apply_actions
   double task = 0;     // thread-seconds in evaluate + reset + observe
 };
+
+// A random policy's actions: every value uniform in [-1, 1], drawn in order from `rng`.
+void random_actions(std::vector<float>& actions, std::mt19937_64& rng);
 
 class TaskEnv {
  public:
