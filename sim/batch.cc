@@ -163,7 +163,7 @@ void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const do
   update_base_wrench(model, d, wrench);
 }
 
-void reset_slot(const SimModel& model, SimBatch& b, int s) {
+void reset_slot(const SimModel& model, SimBatch& b, int s, bool forward) {
   const mjModel* m = model.mj();
   mjData* d = b.data_[s];
   mj_resetData(m, d);
@@ -181,7 +181,6 @@ void reset_slot(const SimModel& model, SimBatch& b, int s) {
   std::fill(v.base_wrench, v.base_wrench + b.base_wrench_width, 0.0);
   std::memcpy(v.ctrl, d->ctrl, sizeof(double) * m->nu);
   apply_inputs(model, d, v.ctrl, v.base_wrench);
-  mj_forward(m, d);
 
   // a new episode: its own random stream
   b.episode[s] += 1;
@@ -189,8 +188,7 @@ void reset_slot(const SimModel& model, SimBatch& b, int s) {
                     static_cast<uint32_t>(s), static_cast<uint32_t>(b.episode[s]),
                     static_cast<uint32_t>(b.episode[s] >> 32)};
   b.rng_[s].seed(seq);
-  b.warnings_seen_[s] = warning_total(d);
-  write_outputs(d, b, s);
+  if (forward) sync_slot(model, b, s);
 }
 
 void reset_all(const SimModel& model, SimBatch& b) {

@@ -105,7 +105,7 @@ class SimBatch {
  private:
   friend void step(const SimModel&, SimBatch&, const std::function<void(int)>*,
                    const std::function<void(int)>*);
-  friend void reset_slot(const SimModel&, SimBatch&, int);
+  friend void reset_slot(const SimModel&, SimBatch&, int, bool);
   friend void sync_slot(const SimModel&, SimBatch&, int);
 
   const SimModel* model_;
@@ -129,7 +129,10 @@ void step(const SimModel& model, SimBatch& batch,
 // Puts one slot back to the scene's initial state (hands at their placements, joints at 0 inside
 // their ranges, targets at the current joints, zero velocity), advances its episode counter,
 // reseeds its random stream and writes its output rows.
-void reset_slot(const SimModel& model, SimBatch& batch, int slot);
+// forward = false leaves the derived quantities and the output rows to a sync_slot call of the
+// caller, who edits the state first (tasks: randomised joints and objects), so the reset runs
+// MuJoCo's forward pass once instead of twice.
+void reset_slot(const SimModel& model, SimBatch& batch, int slot, bool forward = true);
 void reset_all(const SimModel& model, SimBatch& batch);
 
 // After task code edits a slot's mjData (qpos, qvel) directly: recompute derived quantities and

@@ -65,7 +65,6 @@ TaskEnv::TaskEnv(std::unique_ptr<Task> task, const EnvOptions& o) : task_(std::m
   done_return_.assign(n, 0.0);
   done_terms_.assign(n * nterms_, 0.0);
   done_length_.assign(n, 0);
-  done_.assign(n, 0);
   stats_.term_sums.assign(nterms_, 0.0);
   thread_times_.assign(static_cast<size_t>(omp_get_max_threads() + 1) * kPad, 0.0);
   reset();
@@ -103,7 +102,7 @@ void TaskEnv::reset() {
   const size_t od = obs_dim_;
 #pragma omp parallel for schedule(static) num_threads(batch_->threads())
   for (int s = 0; s < nslot_; ++s) {
-    sim::reset_slot(*model_, *batch_, s);
+    sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
     start_episode(s);
     TaskSlot t = slot(s);
     float* o = obs.data() + s * od;
@@ -111,7 +110,6 @@ void TaskEnv::reset() {
     clip_obs(o, obs_dim_);
     reward[s] = 0;
     terminated[s] = truncated[s] = success[s] = fault[s] = 0;
-    done_[s] = 0;
   }
 }
 
@@ -143,16 +141,15 @@ void TaskEnv::post_step(int s) {
   truncated[s] = trunc;
   success[s] = st.success;
   fault[s] = faulted;
-  done_[s] = term || trunc;
   float* o = obs.data() + static_cast<size_t>(s) * obs_dim_;
-  if (done_[s]) {
+  if (term || trunc) {
     float* fo = final_obs.data() + static_cast<size_t>(s) * obs_dim_;
     task_->observe(t, fo);
     clip_obs(fo, obs_dim_);
     done_return_[s] = ep_return_[s];
     done_length_[s] = st.progress;
     std::copy_n(erow, nterms_, done_terms_.data() + static_cast<size_t>(s) * nterms_);
-    if (!faulted) sim::reset_slot(*model_, *batch_, s);
+    if (!faulted) sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
     start_episode(s);
   }
   task_->observe(t, o);
@@ -186,7 +183,7 @@ void TaskEnv::step(const float* actions) {
   // episode records, in slot order (the same totals for any thread count)
   for (int s = 0; s < nslot_; ++s) {
     if (fault[s]) stats_.faults += 1;
-    if (!done_[s]) continue;
+    if (!terminated[s] && !truncated[s]) continue;
     stats_.episodes += 1;
     stats_.successes += success[s];
     stats_.terminated += terminated[s];

@@ -105,7 +105,6 @@ class TaskEnv {
   // per-slot episode accumulators and the record of an episode that ended this step
   std::vector<double> ep_return_, ep_terms_, done_return_, done_terms_;
   std::vector<int> done_length_;
-  std::vector<uint8_t> done_;
   EpisodeStats stats_;
   bool profile_on_ = false;
   StageProfile profile_;
