@@ -95,41 +95,38 @@ TEST_CASE("bad physics YAML is a ConfigError naming file, key, expected and actu
     return config_error([&] { load_physics(path); });
   };
 
-  SECTION("an unknown key") {
-    auto e = load_edited("", "substep_count: 4");
-    check_config_error(e, path, "substep_count", "one of the keys {timestep, substeps",
-                       "unknown key 'substep_count'");
-  }
-  SECTION("a solver MuJoCo does not have") {
-    auto e = load_edited("solver", "solver: Gauss");
-    check_config_error(e, path, "solver", "one of Newton, CG, PGS", "'Gauss'");
-  }
-  SECTION("an unknown integrator") {
-    auto e = load_edited("integrator", "integrator: implicit");
-    check_config_error(e, path, "integrator", "one of Euler, RK4", "'implicit'");
-  }
-  SECTION("a negative timestep") {
-    auto e = load_edited("timestep", "timestep: -0.004");
-    check_config_error(e, path, "timestep", "a number > 0", "-0.004");
-  }
-  SECTION("zero substeps") {
-    auto e = load_edited("substeps", "substeps: 0");
-    check_config_error(e, path, "substeps", "an integer > 0", "0");
-  }
-  SECTION("a fractional iteration count") {
-    auto e = load_edited("iterations", "iterations: 2.5");
-    check_config_error(e, path, "iterations", "an integer", "2.5");
-  }
-  SECTION("a solref of the wrong length") {
-    auto e = load_edited("coupling_solref", "coupling_solref: [0.005]");
-    check_config_error(e, path, "coupling_solref", "a list of 2 numbers", "[0.005]");
-  }
-  SECTION("a string inside solimp") {
-    auto e = load_edited("contact_solimp", "contact_solimp: [0.95, high, 0.001, 0.5, 2.0]");
-    check_config_error(e, path, "contact_solimp[1]", "a number", "high");
-  }
-  SECTION("a string where a boolean is expected") {
-    auto e = load_edited("gravity_free_hands", "gravity_free_hands: sometimes");
-    check_config_error(e, path, "gravity_free_hands", "true or false", "sometimes");
+  // what is wrong, the key to replace ("" appends), the new line, and the error expected
+  struct Case {
+    const char* what;
+    const char* key;
+    const char* line;
+    const char* error_key;
+    const char* expected;
+    const char* actual;
+  };
+  const Case cases[] = {
+      {"an unknown key", "", "substep_count: 4", "substep_count",
+       "one of the keys {timestep, substeps", "unknown key 'substep_count'"},
+      {"a solver MuJoCo does not have", "solver", "solver: Gauss", "solver",
+       "one of Newton, CG, PGS", "'Gauss'"},
+      {"an unknown integrator", "integrator", "integrator: implicit", "integrator",
+       "one of Euler, RK4", "'implicit'"},
+      {"a negative timestep", "timestep", "timestep: -0.004", "timestep", "a number > 0",
+       "-0.004"},
+      {"zero substeps", "substeps", "substeps: 0", "substeps", "an integer > 0", "0"},
+      {"a fractional iteration count", "iterations", "iterations: 2.5", "iterations",
+       "an integer", "2.5"},
+      {"a solref of the wrong length", "coupling_solref", "coupling_solref: [0.005]",
+       "coupling_solref", "a list of 2 numbers", "[0.005]"},
+      {"a string inside solimp", "contact_solimp",
+       "contact_solimp: [0.95, high, 0.001, 0.5, 2.0]", "contact_solimp[1]", "a number", "high"},
+      {"a string where a boolean is expected", "gravity_free_hands",
+       "gravity_free_hands: sometimes", "gravity_free_hands", "true or false", "sometimes"},
+  };
+  for (const Case& c : cases) {
+    SECTION(c.what) {
+      auto e = load_edited(c.key, c.line);
+      check_config_error(e, path, c.error_key, c.expected, c.actual);
+    }
   }
 }
