@@ -322,27 +322,11 @@ void CatchTask::observe(const TaskSlot& t, float* obs) const {
   observe_hand(hands_[0], v, t.task->action.data(), obs);
   observe_hand(hands_[1], v, t.task->action.data() + per_hand, obs + hand_obs);
   float* o = obs + 2 * hand_obs;
-  auto put_quat = [&](const double* q) {
-    math::put_quat_xyzw(o, q);
-    o += 4;
-  };
   for (int i = 0; i < nobj_; ++i) {
     const int b = obj_[i].body;
-    const double* pos = v.xpos + 3 * b;
-    const double* quat = v.xquat + 4 * b;
-    double lin[3], ang[3];
-    body_velocity(v, b, obj_[i].root_tree, lin, ang);
-    for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(pos[k]);
-    put_quat(quat);
-    for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(lin[k]);
-    for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(0.2 * ang[k]);
-    const auto& g = t.task->goal[i];
-    for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(g[k]);
-    put_quat(g.data() + 3);
-    double gc[4], diff[4];
-    math::quat_conj(gc, g.data() + 3);
-    math::mul_quat(diff, quat, gc);
-    put_quat(diff);
+    observe_object(v, b, obj_[i].root_tree, o);
+    observe_goal(t.task->goal[i].data(), v.xquat + 4 * b, o + 13);
+    o += 24;
   }
 }
 

@@ -94,6 +94,28 @@ void body_velocity(const sim::SlotView& v, int body, int root_tree, double* lin,
   }
 }
 
+void tip_point(const HandRig& r, const sim::SlotView& v, int k, double* out) {
+  const int b = r.tip_body[k];
+  const double local[3] = {0, 0, 0.02};
+  math::frame_point(out, v.xpos + 3 * b, v.xquat + 4 * b, local);
+}
+
+void palm_point(const HandRig& r, const sim::SlotView& v, double* out) {
+  const int b = r.palm_body;
+  const double local[3] = {0, -0.02, 0.08};
+  math::frame_point(out, v.xpos + 3 * b, v.xquat + 4 * b, local);
+}
+
+double tip_distance_sum(const HandRig& r, const sim::SlotView& v, const double* p) {
+  double sum = 0;
+  for (int k = 0; k < kTips; ++k) {
+    double t[3];
+    tip_point(r, v, k, t);
+    sum += math::dist3(t, p);
+  }
+  return sum;
+}
+
 void observe_hand(const HandRig& r, const sim::SlotView& v, const float* actions, float* out) {
   const size_t nj = r.qpos_adr.size();
   float* o = out;

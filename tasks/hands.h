@@ -44,6 +44,14 @@ struct HandRig {
 // Binds one hand of a compiled scene; throws ModelError if the scene has no such hand.
 HandRig bind_hand(const sim::SimModel& model, sim::Side side);
 
+// Reward points of the original (tasks/README.md): a fingertip point is the distal body's origin
+// + 0.02 m along its local z (k: 0 ff, 1 mf, 2 rf, 3 lf, 4 th); the palm point is the palm body's
+// origin + 0.08 m along its local z - 0.02 m along its local y.
+void tip_point(const HandRig& rig, const sim::SlotView& v, int k, double* out);
+void palm_point(const HandRig& rig, const sim::SlotView& v, double* out);
+// Sum over the 5 fingertip points of their distance to p (the papers' sum of fingertip distances).
+double tip_distance_sum(const HandRig& rig, const sim::SlotView& v, const double* p);
+
 // One hand's actions (paper order: 20 joints, then base translation 3 and rotation 3 when the
 // base is free), already clipped: joint targets l + (a + 1)(u - l) / 2 into ctrl, base force and
 // torque into the hand's 6 values of the base_wrench row.

@@ -7,6 +7,7 @@
 
 #include <string>
 
+#include "sim/batch.h"
 #include "sim/scene.h"
 
 namespace bidex {
@@ -31,6 +32,13 @@ ObjectChoice parse_object(const YamlView& v);
 sim::ObjectSpec goal_marker(const ObjectChoice& object, const std::string& name);
 // Radius of the smallest sphere about the object's origin that holds it (0 for mjcf objects).
 double bounding_radius(const sim::ObjectSpec& o);
+// The object block of an observation (13 values): position 3, orientation (x, y, z, w) 4, linear
+// velocity 3, angular velocity x 0.2 3, of a body whose tree's root body is `root_tree`.
+void observe_object(const sim::SlotView& v, int body, int root_tree, float* out);
+// The goal block (11 values): goal position 3, goal orientation 4, then the quaternion difference
+// object * conj(goal) 4 (orientations written (x, y, z, w)); `goal` is position then (w, x, y, z).
+void observe_goal(const double* goal, const double* object_quat, float* out);
+
 // Volume (m^3) of a primitive object.
 double object_volume(const sim::ObjectSpec& o);
 
