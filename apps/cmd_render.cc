@@ -1,32 +1,85 @@
-// bidex render: a picture of a task's initial scene, drawn headless by MuJoCo's renderer.
+// bidex render: a picture of a task's initial scene, or the frames (and an MP4 when ffmpeg is
+// installed) of one episode of a trained policy, drawn headless by MuJoCo's renderer.
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <string>
+#include <vector>
+
+#include <spawn.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 
 #include "apps/commands.h"
+#include "core/error.h"
+#include "rl/trainer.h"
 #include "sim/render.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
 
+extern char** environ;
+
 namespace bidex::apps {
+
+namespace {
+
+// The first `name` on PATH that can be executed, or "".
+std::string find_on_path(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::string p = path ? path : "";
+  size_t a = 0;
+  while (a <= p.size()) {
+    size_t c = p.find(':', a);
+    if (c == std::string::npos) c = p.size();
+    std::string cand = p.substr(a, c - a);
+    cand.append("/").append(name);
+    if (c > a && ::access(cand.c_str(), X_OK) == 0) return cand;
+    a = c + 1;
+  }
+  return "";
+}
+
+// Runs a program with arguments, waits; returns its exit status (-1 if it could not start).
+int run_program(const std::vector<std::string>& args) {
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid;
+  if (::posix_spawn(&pid, args[0].c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
+  int status = 0;
+  if (::waitpid(pid, &status, 0) < 0) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
 
 void add_render_command(CLI::App& app) {
   struct Opts {
-    std::string task, out, config;
-    int width = 800, height = 600;
+    std::string task, out, config, run, checkpoint;
+    int width = 800, height = 600, max_frames = 1000, fps = 30;
     uint64_t seed = 1;
     double azimuth = NAN, elevation = NAN, distance = NAN;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
-      "render", "Render a task's initial scene (after one reset) to a PNG, headless "
-                "(MuJoCo's renderer in an offscreen OpenGL context; backend: " +
+      "render", "Render a task's initial scene (after one reset) to a PNG, or with --run the "
+                "frames of one episode of a trained policy (and episode.mp4 when ffmpeg is on "
+                "PATH), headless (MuJoCo's renderer in an offscreen OpenGL context; backend: " +
                     std::string(sim::render_backend()) + ")");
-  cmd->add_option("--task", o->task, "Task id")->required();
-  cmd->add_option("--out,-o", o->out, "PNG file to write (atomically)")->required();
+  cmd->add_option("--task", o->task, "Task id (a scene picture)");
+  cmd->add_option("--run", o->run, "Run folder of bidex train (an episode of its policy)");
+  cmd->add_option("--checkpoint", o->checkpoint, "With --run: checkpoint (default: the newest)");
+  cmd->add_option("--out,-o", o->out,
+                  "PNG file to write (--task), or folder for frame_NNNNN.png and episode.mp4 "
+                  "(--run)")->required();
+  cmd->add_option("--max-frames", o->max_frames, "With --run: stop after this many frames")
+      ->check(CLI::Range(1, 100000))->capture_default_str();
+  cmd->add_option("--fps", o->fps, "With --run: frame rate of the MP4")
+      ->check(CLI::Range(1, 240))->capture_default_str();
   cmd->add_option("--config", o->config, "Task YAML (default: the task's own)");
   cmd->add_option("--width", o->width, "Pixels")->check(CLI::Range(16, 4096))
       ->capture_default_str();
@@ -37,8 +90,68 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--azimuth", o->azimuth, "Camera azimuth, degrees (default: framing view)");
   cmd->add_option("--elevation", o->elevation, "Camera elevation, degrees (negative: from above)");
   cmd->add_option("--distance", o->distance, "Camera distance, metres");
-  cmd->footer("Example:\n  bidex render --task catch_underarm --out catch_underarm.png");
+  cmd->footer("Examples:\n  bidex render --task catch_underarm --out catch_underarm.png\n"
+              "  bidex render --run runs/hand_over-ppo-20261122-120000-s0 --out frames/");
   cmd->callback([o] {
+    if (o->run.empty() == o->task.empty())
+      throw Error("render: give exactly one of --task ID (a scene) and --run DIR (an episode)");
+    if (!o->run.empty()) {
+      rl::LoadedPolicy policy(o->run, o->checkpoint);
+      tasks::EnvOptions eo;
+      eo.nslot = 1;
+      eo.threads = 1;
+      eo.seed = o->seed;
+      tasks::TaskEnv env(tasks::make_task(policy.config().task, policy.config().task_config), eo);
+      env.reset();
+      sim::RenderOptions ro;
+      ro.width = o->width;
+      ro.height = o->height;
+      ro.camera = sim::framing_camera(env.model(), env.batch().data(0), double(o->width) / o->height);
+      if (!std::isnan(o->azimuth)) ro.camera.azimuth_deg = o->azimuth;
+      if (!std::isnan(o->elevation)) ro.camera.elevation_deg = o->elevation;
+      if (!std::isnan(o->distance)) ro.camera.distance = o->distance;
+      std::vector<float> act(env.act_dim());
+      double ret = 0;
+      int frame = 0;
+      auto write = [&] {
+        char name[32];
+        std::snprintf(name, sizeof name, "/frame_%05d.png", frame++);
+        sim::write_png(sim::render(env.model(), env.batch().data(0), ro), o->out + name);
+      };
+      write();
+      bool success = false;
+      while (frame < o->max_frames) {
+        policy.act(env.obs.data(), 1, act.data());
+        env.step(act);
+        ret += env.reward[0];
+        const bool done = env.terminated[0] || env.truncated[0];
+        if (done) {  // the last frame shows the state the episode ended in
+          success = env.success[0];
+          break;
+        }
+        write();
+      }
+      std::printf("wrote %d frames to %s (%s, checkpoint %s): return %.4g, success %d\n", frame,
+                  o->out.c_str(), policy.config().task.c_str(), policy.checkpoint().c_str(), ret,
+                  int(success));
+      const std::string ffmpeg = find_on_path("ffmpeg");
+      if (ffmpeg.empty()) {
+        std::printf("ffmpeg is not on PATH: no episode.mp4 (the frames are PNG files)\n");
+        return;
+      }
+      const std::string mp4 = o->out + "/episode.mp4", tmp = o->out + "/.episode.tmp.mp4";
+      const int rc = run_program({ffmpeg, "-y", "-loglevel", "error", "-framerate",
+                                  std::to_string(o->fps), "-i", o->out + "/frame_%05d.png",
+                                  "-pix_fmt", "yuv420p", "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+                                  tmp});
+      if (rc != 0 || std::rename(tmp.c_str(), mp4.c_str()) != 0) {
+        ::unlink(tmp.c_str());
+        throw Error("ffmpeg (" + ffmpeg + ") failed to write " + mp4 + " (exit " +
+                    std::to_string(rc) + "); the frames are in " + o->out);
+      }
+      std::printf("wrote %s\n", mp4.c_str());
+      return;
+    }
     tasks::EnvOptions eo;
     eo.nslot = 1;
     eo.threads = 1;

@@ -18,6 +18,8 @@ void add_sim_command(CLI::App& app);    // bidex sim: step the two-hand scene, r
 void add_bench_command(CLI::App& app);  // bidex bench sim|soak|physics|task
 void add_info_command(CLI::App& app);   // bidex info: a task's spec and named slices
 void add_play_command(CLI::App& app);   // bidex play: run a task with random/zero actions
-void add_render_command(CLI::App& app); // bidex render: a task's initial scene as a PNG
+void add_render_command(CLI::App& app); // bidex render: a task's scene, or a policy's episode
+void add_train_command(CLI::App& app);  // bidex train: PPO with a run folder, --resume
+void add_eval_command(CLI::App& app);   // bidex eval: a trained policy's return and success
 
 }  // namespace bidex::apps

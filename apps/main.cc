@@ -33,6 +33,8 @@ int main(int argc, char** argv) {
   bidex::apps::add_info_command(app);
   bidex::apps::add_play_command(app);
   bidex::apps::add_render_command(app);
+  bidex::apps::add_train_command(app);
+  bidex::apps::add_eval_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -54,17 +54,18 @@ void Progress::finish() {
 
 void Progress::draw(bool final) {
   double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  double rate = elapsed > 0 ? done_ / elapsed : 0;
+  double rate = elapsed > 0 ? (done_ - baseline_) / elapsed : 0;
   double frac = total_ > 0 ? static_cast<double>(done_) / total_ : 0;
   double eta = rate > 0 ? (total_ - done_) / rate : -1;
   constexpr int kWidth = 28;
   int fill = static_cast<int>(frac * kWidth);
   std::string bar(fill, '#');
   bar.resize(kWidth, '.');
-  std::fprintf(stderr, "%s%s [%s] %3.0f%% %s/%s %s %s/s elapsed %s eta %s%s",
+  std::fprintf(stderr, "%s%s [%s] %3.0f%% %s/%s %s %s/s elapsed %s eta %s%s%s%s",
                tty_ ? "\r" : "", label_.c_str(), bar.c_str(), frac * 100, human(done_).c_str(),
                human(total_).c_str(), unit_.c_str(), human(rate).c_str(), clock(elapsed).c_str(),
-               clock(final ? 0 : eta).c_str(), (final || !tty_) ? "\n" : "");
+               clock(final ? 0 : eta).c_str(), status_.empty() ? "" : " | ", status_.c_str(),
+               (final || !tty_) ? "\n" : (tty_ ? "\x1b[K" : ""));
   std::fflush(stderr);
 }
 

@@ -16,14 +16,19 @@ class Progress {
 
   // Marks `done` units as finished (absolute count) and redraws if due.
   void update(int64_t done);
+  // Text drawn after the rate and ETA (e.g. "return 12.3 success 0.40"); empty: none.
+  void set_status(std::string status) { status_ = std::move(status); }
+  // Work already done before this bar started (a resumed run): counted in the fraction, not in
+  // the rate.
+  void set_baseline(int64_t done) { baseline_ = done_ = done; }
   // Draws the final line and a newline.
   void finish();
 
  private:
   void draw(bool final);
 
-  std::string label_, unit_;
-  int64_t total_ = 0, done_ = 0;
+  std::string label_, unit_, status_;
+  int64_t total_ = 0, done_ = 0, baseline_ = 0;
   bool tty_ = false, finished_ = false;
   std::chrono::steady_clock::time_point start_, last_draw_;
 };

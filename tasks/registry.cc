@@ -16,12 +16,20 @@ const std::vector<TaskEntry>& task_registry() {
   return all;
 }
 
+const std::vector<TaskEntry>& variant_registry() {
+  static const std::vector<TaskEntry> all = {
+      {catch_underarm_raise_spec, make_catch_underarm_raise},
+  };
+  return all;
+}
+
 const TaskEntry& find_task(const std::string& id) {
   std::string known;
-  for (auto& e : task_registry()) {
-    if (e.spec().id == id) return e;
-    known += (known.empty() ? "" : ", ") + e.spec().id;
-  }
+  for (auto* list : {&task_registry(), &variant_registry()})
+    for (auto& e : *list) {
+      if (e.spec().id == id) return e;
+      known += (known.empty() ? "" : ", ") + e.spec().id;
+    }
   throw ConfigError("", "task", "a known task id (" + known + ")", "'" + id + "'");
 }
 

@@ -14,8 +14,11 @@ struct TaskEntry {
   std::unique_ptr<Task> (*make)(const std::string& config_file);
 };
 
+// The paper's tasks, in the paper's order.
 const std::vector<TaskEntry>& task_registry();
-// The entry of a task id; throws ConfigError listing the known ids.
+// Reduced variants of them (TaskSpec::variant_of), e.g. for learning tests in CI.
+const std::vector<TaskEntry>& variant_registry();
+// The entry of a task or variant id; throws ConfigError listing the known ids.
 const TaskEntry& find_task(const std::string& id);
 // The default YAML of a task: tasks/<id>/<id>.yaml under the data folder.
 std::string default_task_config(const std::string& id);
@@ -31,6 +34,7 @@ BIDEX_TASK(catch_underarm)
 BIDEX_TASK(catch_over2underarm)
 BIDEX_TASK(catch_abreast)
 BIDEX_TASK(two_catch_underarm)
+BIDEX_TASK(catch_underarm_raise)
 #undef BIDEX_TASK
 
 }  // namespace bidex::tasks

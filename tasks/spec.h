@@ -72,6 +72,9 @@ struct TaskSpec {
   Layout obs, act;
   std::vector<AgentSpec> agents;
   std::vector<RewardTermSpec> reward_terms;  // the reward is the sum of these terms
+  // Empty for the paper's twenty tasks; for a reduced variant (e.g. a small task that learns in
+  // CI), the id of the task it is cut down from. Variants are never part of a suite.
+  std::string variant_of;
 
   std::string versioned_id() const { return id + "-v" + std::to_string(version); }
   int term_index(const std::string& name) const;  // -1 when absent

@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# The margin of the CI learning test (tests/rl/learning_test.cc): PPO on catch_underarm_raise
+# with its per-task defaults for several seeds, each evaluated (mean action, 64 episodes) against
+# the random policy. Usage: bench/learning_seeds.sh OUT.json [BIDEX] [SEEDS...]
+set -euo pipefail
+out=$1; shift
+bidex=${1:-build/apps/bidex}; shift || true
+seeds=("$@"); [ ${#seeds[@]} -gt 0 ] || seeds=(0 1 2 3)
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+rand=$("$bidex" play --task catch_underarm_raise --policy random --slots 64 --steps 40 --seed 777 --json "$tmp/random.json" >/dev/null && python3 -c "import json;print(json.load(open('$tmp/random.json'))['mean_return'])")
+rows=""
+for s in "${seeds[@]}"; do
+  start=$(date +%s.%N)
+  "$bidex" train --task catch_underarm_raise -o seed=$s --run "$tmp/s$s" >/dev/null 2>&1
+  end=$(date +%s.%N)
+  "$bidex" eval --run "$tmp/s$s" --episodes 64 --seed 777 --json "$tmp/e$s.json" >/dev/null
+  ret=$(python3 -c "import json;print(json.load(open('$tmp/e$s.json'))['mean_return'])")
+  rows="$rows{\"seed\": $s, \"trained_return\": $ret, \"train_seconds\": $(python3 -c "print(round($end-$start,1))")},"
+done
+cat > "$out" <<JSON
+{
+  "what": "CI learning test margin: PPO on catch_underarm_raise (configs/train/ppo.yaml per_task), eval of the mean action over 64 episodes (seed 777) vs random actions",
+  "machine": "$(nproc) cores, $(uname -m), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)",
+  "date": "$(date -u +%Y-%m-%dT%H:%M:%SZ)",
+  "commit": "${BIDEX_COMMIT:-$(git rev-parse --short HEAD 2>/dev/null || echo unknown)}",
+  "command": "bench/learning_seeds.sh $out $bidex ${seeds[*]}",
+  "random_return": $rand,
+  "seeds": [${rows%,}]
+}
+JSON
+cat "$out"

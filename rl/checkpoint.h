@@ -1,0 +1,40 @@
+// Checkpoint files: a text header (a magic line, then one JSON line: task, dimensions, update,
+// steps, config hash, payload size and hash), then LibTorch's serialised archive (networks,
+// normalisers, optimiser, learning rate). Written atomically; a truncated or corrupted file, or a
+// checkpoint of another task or shape, is a clear error before LibTorch parses anything.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <torch/torch.h>
+
+namespace bidex::rl {
+
+struct CheckpointMeta {
+  std::string task;          // task id
+  std::string task_version;  // versioned id, e.g. catch_underarm-v1
+  std::string algo;
+  int64_t obs_dim = 0, act_dim = 0;
+  int64_t update = 0;        // updates done
+  int64_t steps = 0;         // slot-steps done
+  std::string config_hash;
+};
+
+// Writes `meta` and the archive to `path` atomically.
+void save_checkpoint(const std::string& path, const CheckpointMeta& meta,
+                     torch::serialize::OutputArchive& archive);
+
+// Reads the header only (IoError or bidex::Error naming the file when it is not a checkpoint,
+// is truncated or corrupted).
+CheckpointMeta read_checkpoint_meta(const std::string& path);
+
+// Reads and verifies the whole file, then loads the archive onto `device`.
+CheckpointMeta load_checkpoint(const std::string& path, torch::serialize::InputArchive& archive,
+                               const torch::Device& device);
+
+// Checkpoint files of a run folder (<run>/checkpoints/update_XXXXXXXX.ckpt), oldest first.
+std::vector<std::string> list_checkpoints(const std::string& run_dir);
+
+}  // namespace bidex::rl

@@ -1,0 +1,245 @@
+#include "rl/config.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <yaml-cpp/yaml.h>
+
+#include "core/error.h"
+#include "core/yaml.h"
+#include "sim/hand_spec.h"
+
+namespace bidex::rl {
+
+const std::vector<std::string>& known_algos() {
+  static const std::vector<std::string> algos = {"ppo"};
+  return algos;
+}
+
+namespace {
+
+std::string quoted(const std::string& s) {
+  std::string q = "'";
+  q.append(s).append("'");
+  return q;
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+std::string map_keys(const YAML::Node& n) {
+  std::string s;
+  for (auto it = n.begin(); it != n.end(); ++it)
+    s += (s.empty() ? "" : ", ") + it->first.as<std::string>();
+  return s;
+}
+
+// Copies every key of `src` into `dst`, recursing into maps that both have.
+void merge(YAML::Node dst, const YAML::Node& src, const std::string& file, const std::string& path) {
+  for (auto it = src.begin(); it != src.end(); ++it) {
+    const std::string key = it->first.as<std::string>();
+    const std::string p = path.empty() ? key : path + "." + key;
+    if (!dst[key])
+      throw ConfigError(file, p, "a key of the defaults (" + map_keys(dst) + ")", quoted(key));
+    if (it->second.IsMap() && dst[key].IsMap()) merge(dst[key], it->second, file, p);
+    else dst[key] = YAML::Clone(it->second);
+  }
+}
+
+}  // namespace
+
+std::string default_train_config(const std::string& algo) {
+  bool known = false;
+  for (auto& a : known_algos()) known |= a == algo;
+  if (!known) {
+    throw ConfigError("", "algo", "a known algorithm (" + join(known_algos()) + ")", quoted(algo));
+  }
+  return sim::data_dir() + "/configs/train/" + algo + ".yaml";
+}
+
+std::string resolve_train_yaml(const std::string& file, const std::string& algo,
+                               const std::string& task, const std::vector<std::string>& overrides) {
+  YamlView v = YamlView::load_file(file);
+  v.expect_map();
+  YAML::Node root = YAML::Clone(v.node());
+  if (root["task"] || root["algo"])
+    throw ConfigError(file, root["task"] ? "task" : "algo",
+                      "no task or algo key (they come from --task and --algo)", "one");
+  if (auto per = root["per_task"]) {
+    if (!per.IsMap()) YamlView(per, file, "per_task").fail("a map of task id -> overrides", "another value");
+    if (auto mine = per[task]) {
+      root.remove("per_task");
+      merge(root, mine, file, "per_task." + task);
+    } else {
+      root.remove("per_task");
+    }
+  }
+  for (const std::string& o : overrides) {
+    const size_t eq = o.find('=');
+    std::string where = "-o ";
+    where.append(o);
+    if (eq == std::string::npos || eq == 0)
+      throw ConfigError(where, "", "an override key.path=value (e.g. ppo.lr=1e-3)", quoted(o));
+    const std::string key = o.substr(0, eq), value = o.substr(eq + 1);
+    YAML::Node parsed;
+    try {
+      parsed = YAML::Load(value);
+    } catch (const YAML::Exception& e) {
+      throw ConfigError(where, key, "a YAML value", quoted(value) + " (" + e.msg + ")");
+    }
+    // walk the path; every level must exist in the defaults
+    std::vector<std::string> parts;
+    size_t start = 0;
+    while (true) {
+      const size_t dot = key.find('.', start);
+      parts.push_back(key.substr(start, dot == std::string::npos ? std::string::npos : dot - start));
+      if (dot == std::string::npos) break;
+      start = dot + 1;
+    }
+    YAML::Node node = root;
+    std::string path;
+    for (size_t i = 0; i < parts.size(); ++i) {
+      const std::string& k = parts[i];
+      path += (path.empty() ? "" : ".") + k;
+      if (k.empty() || !node.IsMap() || !node[k])
+        throw ConfigError(where, path,
+                          node.IsMap() ? "a known key (" + map_keys(node) + ")" : "a map above it",
+                          quoted(k));
+      if (i + 1 == parts.size()) {
+        if (node[k].IsMap())
+          throw ConfigError(where, path, "a key below it (" + map_keys(node[k]) + ")", "a section");
+        node[k] = parsed;
+      } else {
+        node.reset(node[k]);
+      }
+    }
+  }
+  YAML::Node out;
+  out["task"] = task;
+  out["algo"] = algo;
+  for (auto it = root.begin(); it != root.end(); ++it) out[it->first] = it->second;
+  YAML::Emitter em;
+  em.SetIndent(2);
+  em << out;
+  // validate now, so that a bad override fails before anything is written
+  std::string text = std::string(em.c_str()) + "\n";
+  parse_train_config(text, file);
+  return text;
+}
+
+TrainConfig parse_train_config(const std::string& yaml_text, const std::string& name) {
+  YamlView v = YamlView::load_string(yaml_text, name);
+  v.allow_keys({"task", "algo", "seed", "env", "train", "ppo"});
+  TrainConfig c;
+  c.task = v.req<std::string>("task");
+  c.algo = v.req<std::string>("algo");
+  {
+    auto s = v.child("seed");
+    const double x = s.as<double>();
+    if (x < 0 || x != std::floor(x) || x > 9.0e15) s.fail("an integer >= 0", s.repr());
+    c.seed = static_cast<uint64_t>(x);
+  }
+  auto positive = [](const YamlView& p, const char* key, int lo) {
+    auto n = p.child(key);
+    const int x = n.as<int>();
+    if (x < lo) n.fail("an integer >= " + std::to_string(lo), n.repr());
+    return x;
+  };
+  auto real = [](const YamlView& p, const char* key, double lo, double hi, bool open_lo) {
+    auto n = p.child(key);
+    const double x = n.as<double>();
+    if (!std::isfinite(x) || (open_lo ? x <= lo : x < lo) || x > hi) {
+      char buf[96];
+      std::snprintf(buf, sizeof buf, "a number in %s%g, %g]", open_lo ? "(" : "[", lo, hi);
+      n.fail(buf, n.repr());
+    }
+    return x;
+  };
+  auto choice = [](const YamlView& p, const char* key, const std::vector<std::string>& allowed) {
+    auto n = p.child(key);
+    const std::string x = n.as<std::string>();
+    for (auto& a : allowed)
+      if (a == x) return x;
+    n.fail("one of " + join(allowed), n.repr());
+  };
+  {
+    auto e = v.child("env");
+    e.allow_keys({"slots", "threads", "task_config"});
+    c.slots = positive(e, "slots", 1);
+    c.threads = positive(e, "threads", 0);
+    c.task_config = e.req<std::string>("task_config");
+  }
+  {
+    auto t = v.child("train");
+    t.allow_keys({"steps", "save_interval", "keep_checkpoints", "plot_interval", "device",
+                  "torch_threads"});
+    auto s = t.child("steps");
+    const double x = s.as<double>();
+    if (!(x >= 1) || x != std::floor(x) || x > 9.0e15) s.fail("an integer >= 1", s.repr());
+    c.steps = static_cast<int64_t>(x);
+    c.save_interval = positive(t, "save_interval", 1);
+    c.keep_checkpoints = positive(t, "keep_checkpoints", 1);
+    c.plot_interval = positive(t, "plot_interval", 1);
+    c.device = choice(t, "device", {"auto", "cpu", "cuda"});
+    c.torch_threads = positive(t, "torch_threads", 0);
+  }
+  {
+    auto p = v.child("ppo");
+    p.allow_keys({"hidden", "activation", "init_std", "horizon", "epochs", "minibatches", "clip",
+                  "lr", "schedule", "desired_kl", "gamma", "lambda", "max_grad_norm",
+                  "entropy_coef", "value_coef", "clip_value_loss", "value_clip", "obs_norm",
+                  "value_norm"});
+    auto& o = c.ppo;
+    {
+      auto h = p.child("hidden");
+      o.hidden.clear();
+      for (auto& item : h.items()) {
+        const int x = item.as<int>();
+        if (x < 1) item.fail("a layer width >= 1", item.repr());
+        o.hidden.push_back(x);
+      }
+      if (o.hidden.empty()) h.fail("at least one hidden layer", "[]");
+    }
+    o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
+    o.init_std = real(p, "init_std", 0, 10, true);
+    o.horizon = positive(p, "horizon", 1);
+    o.epochs = positive(p, "epochs", 1);
+    o.minibatches = positive(p, "minibatches", 1);
+    o.clip = real(p, "clip", 0, 1, true);
+    o.lr = real(p, "lr", 0, 1, true);
+    o.schedule = choice(p, "schedule", {"adaptive", "fixed"});
+    o.desired_kl = real(p, "desired_kl", 0, 10, true);
+    o.gamma = real(p, "gamma", 0, 1, false);
+    o.lambda = real(p, "lambda", 0, 1, false);
+    o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
+    o.entropy_coef = real(p, "entropy_coef", 0, 1e3, false);
+    o.value_coef = real(p, "value_coef", 0, 1e3, false);
+    o.clip_value_loss = p.req<bool>("clip_value_loss");
+    o.value_clip = real(p, "value_clip", 0, 1e3, true);
+    o.obs_norm = p.req<bool>("obs_norm");
+    o.value_norm = p.req<bool>("value_norm");
+  }
+  if (c.batch() < c.ppo.minibatches) {
+    std::string actual = std::to_string(c.batch());
+    throw ConfigError(name, "ppo.minibatches",
+                      "at most env.slots x ppo.horizon (" + actual + ") minibatches",
+                      std::to_string(c.ppo.minibatches));
+  }
+  return c;
+}
+
+std::string config_hash(const std::string& yaml_text) {
+  uint64_t h = 1469598103934665603ull;  // FNV-1a, 64 bits
+  for (unsigned char ch : yaml_text) {
+    h ^= ch;
+    h *= 1099511628211ull;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+}  // namespace bidex::rl

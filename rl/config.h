@@ -1,0 +1,74 @@
+// The resolved configuration of a training run: defaults from configs/train/<algo>.yaml, the
+// file's per-task section, then `-o key=value` overrides, read strictly (unknown keys, wrong
+// types and impossible values are ConfigErrors naming the file, key, expected and actual value).
+// The resolved YAML is what a run folder keeps as config.yaml and what --resume reads back.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace bidex::rl {
+
+struct PpoConfig {
+  std::vector<int> hidden{1024, 1024, 512};
+  std::string activation = "elu";
+  double init_std = 0.8;
+  int horizon = 8;
+  int epochs = 5;
+  int minibatches = 4;
+  double clip = 0.2;
+  double lr = 3e-4;
+  std::string schedule = "adaptive";
+  double desired_kl = 0.016;
+  double gamma = 0.96;
+  double lambda = 0.95;
+  double max_grad_norm = 1.0;
+  double entropy_coef = 0.0;
+  double value_coef = 2.0;
+  bool clip_value_loss = false;
+  double value_clip = 0.2;
+  bool obs_norm = true;
+  bool value_norm = false;
+};
+
+struct TrainConfig {
+  std::string algo = "ppo";
+  std::string task;
+  uint64_t seed = 0;
+  int slots = 2048;
+  int threads = 0;
+  std::string task_config;
+  int64_t steps = 100000000;
+  int save_interval = 100;
+  int keep_checkpoints = 3;
+  int plot_interval = 10;
+  std::string device = "auto";
+  int torch_threads = 0;
+  PpoConfig ppo;
+
+  // slot-steps per update
+  int64_t batch() const { return int64_t(slots) * ppo.horizon; }
+};
+
+// The algorithms `bidex train` knows.
+const std::vector<std::string>& known_algos();
+
+// The defaults file of an algorithm: <data dir>/configs/train/<algo>.yaml. Unknown algo:
+// ConfigError listing the known ones.
+std::string default_train_config(const std::string& algo);
+
+// Builds the resolved YAML text for a new run: `file`'s top-level keys (per_task removed, the
+// task's own section merged in), then each "key.path=value" override; adds `task` and `algo`.
+// A malformed override (no '=', empty key), an unknown key or a value of the wrong type is a
+// ConfigError naming the override.
+std::string resolve_train_yaml(const std::string& file, const std::string& algo,
+                               const std::string& task, const std::vector<std::string>& overrides);
+
+// Reads a resolved YAML (as written by resolve_train_yaml) strictly. `name` names it in errors.
+TrainConfig parse_train_config(const std::string& yaml_text, const std::string& name);
+
+// A short hash of the resolved YAML text (hex), recorded with every checkpoint.
+std::string config_hash(const std::string& yaml_text);
+
+}  // namespace bidex::rl

@@ -1,0 +1,111 @@
+#include "rl/policy.h"
+
+#include <cmath>
+
+namespace bidex::rl {
+
+RunningNormImpl::RunningNormImpl(int64_t dim, double clip) : clip_(clip) {
+  auto f64 = torch::TensorOptions().dtype(torch::kFloat64);
+  mean_ = register_buffer("mean", torch::zeros({dim}, f64));
+  var_ = register_buffer("var", torch::ones({dim}, f64));
+  count_ = register_buffer("count", torch::full({1}, 1e-4, f64));
+}
+
+void RunningNormImpl::update(const torch::Tensor& x) {
+  torch::NoGradGuard ng;
+  auto xd = x.detach().to(torch::kFloat64).reshape({-1, mean_.size(0)});
+  const double n = static_cast<double>(xd.size(0));
+  if (n == 0) return;
+  auto bmean = xd.mean(0);
+  auto bvar = xd.var(0, /*unbiased=*/false);
+  auto total = count_ + n;
+  auto delta = bmean - mean_;
+  auto new_mean = mean_ + delta * n / total;
+  auto m2 = var_ * count_ + bvar * n + delta.pow(2) * count_ * n / total;
+  mean_.copy_(new_mean);
+  var_.copy_(m2 / total);
+  count_.copy_(total);
+}
+
+torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const {
+  auto m = mean_.to(x.scalar_type()), s = (var_ + 1e-8).sqrt().to(x.scalar_type());
+  return ((x - m) / s).clamp(-clip_, clip_);
+}
+
+torch::Tensor RunningNormImpl::denormalize(const torch::Tensor& x) const {
+  auto m = mean_.to(x.scalar_type()), s = (var_ + 1e-8).sqrt().to(x.scalar_type());
+  return x * s + m;
+}
+
+torch::Tensor gaussian_log_prob(const torch::Tensor& a, const torch::Tensor& mean,
+                                const torch::Tensor& log_std) {
+  auto z = (a - mean) * torch::exp(-log_std);
+  return (-0.5 * z.pow(2) - log_std - 0.5 * std::log(2 * M_PI)).sum(-1);
+}
+
+torch::Tensor gaussian_entropy(const torch::Tensor& log_std) {
+  return (log_std + 0.5 + 0.5 * std::log(2 * M_PI)).sum(-1);
+}
+
+torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_std_old,
+                          const torch::Tensor& mu_new, const torch::Tensor& log_std_new) {
+  auto var_old = torch::exp(2 * log_std_old), var_new = torch::exp(2 * log_std_new);
+  return (log_std_new - log_std_old + (var_old + (mu_old - mu_new).pow(2)) / (2 * var_new) - 0.5)
+      .sum(-1);
+}
+
+namespace {
+
+torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
+                          const std::string& activation, double out_gain) {
+  torch::nn::Sequential net;
+  int64_t width = in;
+  for (int h : hidden) {
+    torch::nn::Linear lin(width, h);
+    torch::nn::init::orthogonal_(lin->weight, std::sqrt(2.0));
+    torch::nn::init::zeros_(lin->bias);
+    net->push_back(lin);
+    if (activation == "elu") net->push_back(torch::nn::ELU());
+    else if (activation == "relu") net->push_back(torch::nn::ReLU());
+    else net->push_back(torch::nn::Tanh());
+    width = h;
+  }
+  torch::nn::Linear last(width, out);
+  torch::nn::init::orthogonal_(last->weight, out_gain);
+  torch::nn::init::zeros_(last->bias);
+  net->push_back(last);
+  return net;
+}
+
+}  // namespace
+
+ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& c)
+    : obs_dim_(obs_dim),
+      act_dim_(act_dim),
+      use_obs_norm_(c.obs_norm),
+      use_value_norm_(c.value_norm) {
+  // orthogonal initialisation: sqrt(2) for hidden layers, 0.01 for the actor's output, 1 for the
+  // critic's (the original's gains)
+  actor_ = register_module("actor", mlp(obs_dim, c.hidden, act_dim, c.activation, 0.01));
+  critic_ = register_module("critic", mlp(obs_dim, c.hidden, 1, c.activation, 1.0));
+  log_std_ = register_parameter("log_std", torch::full({act_dim}, std::log(c.init_std)));
+  obs_norm_ = register_module("obs_norm", RunningNorm(obs_dim));
+  value_norm_ = register_module("value_norm", RunningNorm(1, 1e9));
+}
+
+torch::Tensor ActorCriticImpl::normalize_obs(const torch::Tensor& obs) const {
+  return use_obs_norm_ ? obs_norm_->normalize(obs) : obs;
+}
+
+torch::Tensor ActorCriticImpl::mean(const torch::Tensor& nobs) { return actor_->forward(nobs); }
+
+torch::Tensor ActorCriticImpl::raw_value(const torch::Tensor& nobs) {
+  return critic_->forward(nobs).squeeze(-1);
+}
+
+torch::Tensor ActorCriticImpl::value(const torch::Tensor& nobs) {
+  auto v = raw_value(nobs);
+  return use_value_norm_ ? value_norm_->denormalize(v) : v;
+}
+
+}  // namespace bidex::rl

@@ -1,0 +1,68 @@
+// The learning side's networks: a running normaliser, and the actor-critic of PPO (an MLP actor
+// giving the mean of a Gaussian with a learned state-independent log-std, and a separate MLP
+// critic). Pulls in LibTorch: include it only in rl/ sources and the commands that train.
+#pragma once
+
+#include <torch/torch.h>
+
+#include "rl/config.h"
+
+namespace bidex::rl {
+
+// Running mean and variance of vectors (Chan's parallel update, in float64), and the
+// normalisation clamp((x - mean) / sqrt(var + eps), -clip, clip). Its state is buffers, so it is
+// saved and loaded with the module that owns it.
+class RunningNormImpl : public torch::nn::Module {
+ public:
+  explicit RunningNormImpl(int64_t dim, double clip = 5.0);
+  // x: [batch, dim] (any floating type, any device the module is on)
+  void update(const torch::Tensor& x);
+  torch::Tensor normalize(const torch::Tensor& x) const;
+  // Scale back (value normalisation): x * std + mean, no clamp.
+  torch::Tensor denormalize(const torch::Tensor& x) const;
+  double count() const { return count_.item<double>(); }
+
+ private:
+  double clip_;
+  torch::Tensor mean_, var_, count_;
+};
+TORCH_MODULE(RunningNorm);
+
+// A diagonal Gaussian's log-density of `a` (summed over the last axis) and its entropy.
+torch::Tensor gaussian_log_prob(const torch::Tensor& a, const torch::Tensor& mean,
+                                const torch::Tensor& log_std);
+torch::Tensor gaussian_entropy(const torch::Tensor& log_std);
+// KL(old || new) of two diagonal Gaussians, summed over the last axis.
+torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_std_old,
+                          const torch::Tensor& mu_new, const torch::Tensor& log_std_new);
+
+class ActorCriticImpl : public torch::nn::Module {
+ public:
+  ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& config);
+
+  // Observations as the environment gives them (normalised inside when obs_norm is on).
+  torch::Tensor normalize_obs(const torch::Tensor& obs) const;
+  // On normalised observations: the action mean, and the value in return units.
+  torch::Tensor mean(const torch::Tensor& nobs);
+  torch::Tensor value(const torch::Tensor& nobs);
+  // The critic's raw output (normalised units when value_norm is on).
+  torch::Tensor raw_value(const torch::Tensor& nobs);
+  torch::Tensor log_std() const { return log_std_; }
+
+  RunningNorm& obs_norm() { return obs_norm_; }
+  RunningNorm& value_norm() { return value_norm_; }
+  bool uses_obs_norm() const { return use_obs_norm_; }
+  bool uses_value_norm() const { return use_value_norm_; }
+  int64_t obs_dim() const { return obs_dim_; }
+  int64_t act_dim() const { return act_dim_; }
+
+ private:
+  int64_t obs_dim_, act_dim_;
+  bool use_obs_norm_, use_value_norm_;
+  torch::nn::Sequential actor_{nullptr}, critic_{nullptr};
+  torch::Tensor log_std_;
+  RunningNorm obs_norm_{nullptr}, value_norm_{nullptr};
+};
+TORCH_MODULE(ActorCritic);
+
+}  // namespace bidex::rl

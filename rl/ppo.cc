@@ -1,0 +1,132 @@
+#include "rl/ppo.h"
+
+#include <algorithm>
+
+namespace bidex::rl {
+
+Rollout::Rollout(int64_t T, int64_t N, int64_t D, int64_t A, const torch::Device& device)
+    : horizon(T), nslot(N) {
+  auto f = torch::TensorOptions().dtype(torch::kFloat32).device(device);
+  nobs = torch::zeros({T, N, D}, f);
+  actions = torch::zeros({T, N, A}, f);
+  logp = torch::zeros({T, N}, f);
+  mu = torch::zeros({T, N, A}, f);
+  values = torch::zeros({T, N}, f);
+  rewards = torch::zeros({T, N}, f);
+  dones = torch::zeros({T, N}, f);
+  log_std = torch::zeros({A}, f);
+}
+
+std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
+                                            const torch::Tensor& values,
+                                            const torch::Tensor& dones,
+                                            const torch::Tensor& last_value, double gamma,
+                                            double lambda) {
+  torch::NoGradGuard ng;
+  const int64_t T = rewards.size(0);
+  auto adv = torch::zeros_like(rewards);
+  auto running = torch::zeros_like(last_value);
+  for (int64_t t = T - 1; t >= 0; --t) {
+    auto next_value = t == T - 1 ? last_value : values[t + 1];
+    auto alive = 1.0 - dones[t];
+    auto delta = rewards[t] + gamma * next_value * alive - values[t];
+    running = delta + gamma * lambda * alive * running;
+    adv[t] = running;
+  }
+  return {adv, adv + values};
+}
+
+Ppo::Ppo(ActorCritic model, const PpoConfig& config)
+    : model_(std::move(model)), c_(config), lr_(config.lr) {
+  opt_ = std::make_unique<torch::optim::Adam>(model_->parameters(),
+                                              torch::optim::AdamOptions(c_.lr));
+}
+
+void Ppo::set_lr(double lr) {
+  lr_ = lr;
+  for (auto& g : opt_->param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
+}
+
+UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
+  auto [adv, ret] = gae(r.rewards, r.values, r.dones, last_value, c_.gamma, c_.lambda);
+  const int64_t B = r.horizon * r.nslot;
+  auto nobs = r.nobs.reshape({B, -1});
+  auto actions = r.actions.reshape({B, -1});
+  auto logp_old = r.logp.reshape({B});
+  auto mu_old = r.mu.reshape({B, -1});
+  auto values_old = r.values.reshape({B});
+  auto returns = ret.reshape({B});
+  auto advantages = adv.reshape({B});
+  advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
+  torch::Tensor targets = returns, values_old_raw = values_old;
+  if (model_->uses_value_norm()) {
+    model_->value_norm()->update(returns.unsqueeze(1));
+    torch::NoGradGuard ng;
+    targets = model_->value_norm()->normalize(returns.unsqueeze(1)).squeeze(1);
+    values_old_raw = model_->value_norm()->normalize(values_old.unsqueeze(1)).squeeze(1);
+  }
+  const auto log_std_old = r.log_std.detach();
+  const int64_t mb = B / c_.minibatches;
+  UpdateStats st;
+  int n = 0;
+  for (int epoch = 0; epoch < c_.epochs; ++epoch) {
+    auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(nobs.device()));
+    for (int k = 0; k < c_.minibatches; ++k) {
+      auto idx = perm.narrow(0, k * mb, mb);
+      auto o = nobs.index_select(0, idx);
+      auto a = actions.index_select(0, idx);
+      auto mu = model_->mean(o);
+      auto log_std = model_->log_std();
+      auto logp = gaussian_log_prob(a, mu, log_std);
+      double kl = 0;
+      {
+        torch::NoGradGuard ng;
+        kl = gaussian_kl(mu_old.index_select(0, idx), log_std_old, mu, log_std).mean().item<double>();
+      }
+      if (c_.schedule == "adaptive") {
+        if (kl > 2.0 * c_.desired_kl) set_lr(std::max(1e-5, lr_ / 1.5));
+        else if (kl < 0.5 * c_.desired_kl && kl > 0.0) set_lr(std::min(1e-2, lr_ * 1.5));
+      }
+      auto adv_mb = advantages.index_select(0, idx);
+      auto ratio = torch::exp(logp - logp_old.index_select(0, idx));
+      auto surr = torch::min(ratio * adv_mb, torch::clamp(ratio, 1.0 - c_.clip, 1.0 + c_.clip) * adv_mb);
+      auto policy_loss = -surr.mean();
+      auto v = model_->raw_value(o);
+      auto tgt = targets.index_select(0, idx);
+      torch::Tensor value_loss;
+      if (c_.clip_value_loss) {
+        auto v_old = values_old_raw.index_select(0, idx);
+        auto v_clipped = v_old + torch::clamp(v - v_old, -c_.value_clip, c_.value_clip);
+        value_loss = torch::max((v - tgt).pow(2), (v_clipped - tgt).pow(2)).mean();
+      } else {
+        value_loss = (v - tgt).pow(2).mean();
+      }
+      auto entropy = gaussian_entropy(log_std);
+      auto loss = policy_loss + c_.value_coef * value_loss - c_.entropy_coef * entropy;
+      opt_->zero_grad();
+      loss.backward();
+      torch::nn::utils::clip_grad_norm_(model_->parameters(), c_.max_grad_norm);
+      opt_->step();
+      {
+        torch::NoGradGuard ng;
+        st.policy_loss += policy_loss.item<double>();
+        st.value_loss += value_loss.item<double>();
+        st.entropy += entropy.item<double>();
+        st.clip_fraction += ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean().item<double>();
+      }
+      st.kl += kl;
+      ++n;
+    }
+  }
+  if (n > 0) {
+    st.policy_loss /= n;
+    st.value_loss /= n;
+    st.entropy /= n;
+    st.kl /= n;
+    st.clip_fraction /= n;
+  }
+  st.lr = lr_;
+  return st;
+}
+
+}  // namespace bidex::rl

@@ -1,0 +1,60 @@
+// PPO (clipped surrogate, optional clipped value loss, KL-adaptive learning rate, minibatches,
+// epochs, gradient-norm clipping, entropy bonus) over a rollout of `horizon` steps of every
+// slot, with GAE advantages. Everything lives on the device of the actor-critic.
+#pragma once
+
+#include <memory>
+
+#include <torch/torch.h>
+
+#include "rl/config.h"
+#include "rl/policy.h"
+
+namespace bidex::rl {
+
+// One rollout, [T, N, ...] tensors on the training device.
+struct Rollout {
+  Rollout(int64_t horizon, int64_t nslot, int64_t obs_dim, int64_t act_dim,
+          const torch::Device& device);
+  torch::Tensor nobs;      // observations as the policy saw them (normalised), [T, N, D]
+  torch::Tensor actions;   // sampled (unclipped) actions, [T, N, A]
+  torch::Tensor logp;      // their log-probability, [T, N]
+  torch::Tensor mu;        // the policy's mean, [T, N, A]
+  torch::Tensor values;    // critic, return units, [T, N]
+  torch::Tensor rewards;   // reward (+ gamma V(final obs) where the time limit cut the episode)
+  torch::Tensor dones;     // 1 where the episode ended at this step (either way), [T, N]
+  torch::Tensor log_std;   // the policy's log-std during the rollout, [A]
+  int64_t horizon, nslot;
+};
+
+// Generalised advantage estimation. `dones[t]` cuts the recursion after step t; `last_value` is
+// V(obs after the last step). Returns (advantages, returns), both [T, N].
+std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
+                                            const torch::Tensor& values,
+                                            const torch::Tensor& dones,
+                                            const torch::Tensor& last_value, double gamma,
+                                            double lambda);
+
+struct UpdateStats {
+  double policy_loss = 0, value_loss = 0, entropy = 0, kl = 0, lr = 0, clip_fraction = 0;
+};
+
+class Ppo {
+ public:
+  Ppo(ActorCritic model, const PpoConfig& config);
+
+  // Runs the epochs and minibatches over `r`, `last_value` = V(obs after the rollout).
+  UpdateStats update(const Rollout& r, const torch::Tensor& last_value);
+
+  torch::optim::Adam& optimizer() { return *opt_; }
+  double lr() const { return lr_; }
+  void set_lr(double lr);
+
+ private:
+  ActorCritic model_;
+  PpoConfig c_;
+  std::unique_ptr<torch::optim::Adam> opt_;
+  double lr_;
+};
+
+}  // namespace bidex::rl

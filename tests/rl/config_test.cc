@@ -1,0 +1,112 @@
+// The training configuration: the paper's defaults, per-task columns, -o overrides and every
+// kind of bad input, on the real configs/train/ppo.yaml.
+#include "tests/rl/rl_fixture.h"
+
+#include "core/error.h"
+
+using namespace bidex;
+
+namespace {
+rl::TrainConfig resolve(const std::string& task, const std::vector<std::string>& o = {}) {
+  const std::string yaml = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", task, o);
+  return rl::parse_train_config(yaml, "resolved");
+}
+
+template <class F>
+void require_config_error(F&& f, const std::string& key, const std::string& expected_part,
+                          const std::string& actual_part) {
+  try {
+    f();
+    FAIL("no ConfigError");
+  } catch (const ConfigError& e) {
+    INFO(e.what());
+    CHECK(e.key() == key);
+    CHECK(e.expected().find(expected_part) != std::string::npos);
+    CHECK(e.actual().find(actual_part) != std::string::npos);
+  }
+}
+}  // namespace
+
+TEST_CASE("PPO defaults are the paper's table", "[rl][config]") {
+  const auto c = resolve("hand_over");
+  CHECK(c.task == "hand_over");
+  CHECK(c.algo == "ppo");
+  CHECK(c.slots == 2048);
+  CHECK(c.steps == 100000000);
+  CHECK(c.ppo.hidden == std::vector<int>{1024, 1024, 512});
+  CHECK(c.ppo.activation == "elu");
+  CHECK(c.ppo.horizon == 8);
+  CHECK(c.ppo.epochs == 5);
+  CHECK(c.ppo.minibatches == 4);
+  CHECK(c.ppo.clip == 0.2);
+  CHECK(c.ppo.lr == 3e-4);
+  CHECK(c.ppo.schedule == "adaptive");
+  CHECK(c.ppo.desired_kl == 0.016);
+  CHECK(c.ppo.gamma == 0.96);
+  CHECK(c.ppo.lambda == 0.95);
+  CHECK(c.ppo.max_grad_norm == 1.0);
+  CHECK(c.ppo.entropy_coef == 0.0);
+  CHECK(c.ppo.init_std == 0.8);
+  CHECK(c.batch() == 2048 * 8);
+}
+
+TEST_CASE("per-task columns of the paper's table apply to their task only", "[rl][config]") {
+  const auto lift = resolve("lift_underarm");
+  CHECK(lift.ppo.horizon == 20);
+  CHECK(lift.ppo.epochs == 10);
+  CHECK(lift.ppo.minibatches == 4);
+  const auto stack = resolve("block_stack");
+  CHECK(stack.ppo.epochs == 2);
+  CHECK(stack.ppo.minibatches == 8);
+  CHECK(stack.ppo.gamma == 0.9);
+  CHECK(resolve("catch_underarm").ppo.epochs == 5);
+}
+
+TEST_CASE("-o overrides change nested keys with YAML values", "[rl][config]") {
+  const auto c = resolve("catch_underarm", {"ppo.lr=1e-3", "env.slots=64", "ppo.hidden=[8, 4]",
+                                            "ppo.value_norm=true", "train.steps=2e6", "seed=7"});
+  CHECK(c.ppo.lr == 1e-3);
+  CHECK(c.slots == 64);
+  CHECK(c.ppo.hidden == std::vector<int>{8, 4});
+  CHECK(c.ppo.value_norm);
+  CHECK(c.steps == 2000000);
+  CHECK(c.seed == 7);
+  // an override wins over the per-task column
+  CHECK(resolve("lift_underarm", {"ppo.horizon=3"}).ppo.horizon == 3);
+}
+
+TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected and actual",
+          "[rl][config]") {
+  const std::string file = rl::default_train_config("ppo");
+  auto res = [&](std::vector<std::string> o) {
+    return [=] { rl::resolve_train_yaml(file, "ppo", "hand_over", o); };
+  };
+  require_config_error(res({"ppo.lr"}), "", "key.path=value", "ppo.lr");
+  require_config_error(res({"=3"}), "", "key.path=value", "=3");
+  require_config_error(res({"ppo.learning_rate=1"}), "ppo.learning_rate", "desired_kl",
+                       "learning_rate");
+  require_config_error(res({"opt.lr=1"}), "opt", "a known key", "opt");
+  require_config_error(res({"ppo=1"}), "ppo", "a key below it", "a section");
+  require_config_error(res({"ppo.epochs=many"}), "ppo.epochs", "integer", "many");
+  require_config_error(res({"ppo.gamma=1.5"}), "ppo.gamma", "[0, 1]", "1.5");
+  require_config_error(res({"ppo.activation=swish"}), "ppo.activation", "elu", "swish");
+  require_config_error(res({"ppo.hidden=[]"}), "ppo.hidden", "at least one", "[]");
+  require_config_error(res({"train.device=tpu"}), "train.device", "cuda", "tpu");
+  require_config_error(res({"env.slots=2", "ppo.horizon=1", "ppo.minibatches=4"}),
+                       "ppo.minibatches", "at most", "4");
+  require_config_error([] { rl::default_train_config("dqn"); }, "algo", "ppo", "dqn");
+}
+
+TEST_CASE("an unknown key in a training YAML file names the file", "[rl][config]") {
+  test::TaskTempDir dir;
+  std::string text = read_file(rl::default_train_config("ppo"));
+  text = test::edit_once(text, "  epochs: 5\n", "  epochs: 5\n  epoch: 5\n");
+  const std::string path = dir.write("ppo.yaml", text);
+  try {
+    rl::resolve_train_yaml(path, "ppo", "hand_over", {});
+    FAIL("no ConfigError");
+  } catch (const ConfigError& e) {
+    INFO(e.what());
+    CHECK(std::string(e.what()).find("ppo.epoch") != std::string::npos);
+  }
+}

@@ -1,0 +1,280 @@
+// The training workflow on real tasks: the run folder, metrics, learning curve, checkpoints
+// (atomic, verified), stopping and resuming, evaluation, and every bad input the issue names
+// (unknown task or algorithm, malformed override, a checkpoint of another task, a truncated
+// checkpoint), through the API and through the bidex binary.
+#include <csignal>
+#include <thread>
+
+#include <unistd.h>
+
+#include "tests/rl/rl_fixture.h"
+
+#include "core/error.h"
+#include "rl/checkpoint.h"
+#include "rl/metrics.h"
+#include "rl/trainer.h"
+
+using namespace bidex;
+
+namespace {
+rl::TrainOptions quiet() {
+  rl::TrainOptions o;
+  o.progress = false;
+  return o;
+}
+
+std::vector<double> metric(const std::string& dir, const std::string& col) {
+  std::vector<std::string> cols;
+  std::vector<std::vector<double>> rows;
+  rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
+  size_t c = 0;
+  while (c < cols.size() && cols[c] != col) ++c;
+  REQUIRE(c < cols.size());
+  std::vector<double> out;
+  for (auto& r : rows) out.push_back(r[c]);
+  return out;
+}
+
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  FAIL("no bidex::Error");
+  return "";
+}
+}  // namespace
+
+TEST_CASE("a training run writes its config, metrics, curve and checkpoints", "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  const std::string yaml = test::tiny_yaml("hand_over", {"train.steps=96"});
+  auto r = rl::train_new(yaml, dir, quiet());
+  CHECK(r.updates == 3);
+  CHECK(r.steps == 96);
+  CHECK_FALSE(r.interrupted);
+  CHECK(read_file(dir + "/config.yaml") == yaml);
+  CHECK(test::file_exists(dir + "/run.json"));
+  CHECK(test::file_exists(dir + "/summary.json"));
+  CHECK(metric(dir, "update") == std::vector<double>{1, 2, 3});
+  CHECK(metric(dir, "steps") == std::vector<double>{32, 64, 96});
+  for (double f : metric(dir, "fps")) CHECK(f > 0);
+  for (double l : metric(dir, "lr")) CHECK(l > 0);
+  // every reward term of the task has a column, and the JSONL has one object per update
+  CHECK(metric(dir, "term_pose").size() == 3);
+  const std::string jsonl = read_file(dir + "/metrics.jsonl");
+  CHECK(std::count(jsonl.begin(), jsonl.end(), '\n') == 3);
+  CHECK(jsonl.find("\"return\":null") != std::string::npos);  // no episode ends in 24 steps
+  const std::string svg = read_file(dir + "/learning_curve.svg");
+  CHECK(svg.rfind("<svg", 0) == 0);
+  CHECK(svg.find("mean episode return") != std::string::npos);
+  // save_interval 1, keep 3: the three newest, the last one the final update
+  auto cks = rl::list_checkpoints(dir);
+  REQUIRE(cks.size() == 3);
+  const auto m = rl::read_checkpoint_meta(cks.back());
+  CHECK(m.task == "hand_over");
+  CHECK(m.update == 3);
+  CHECK(m.steps == 96);
+  CHECK(m.obs_dim == 398);
+  CHECK(m.act_dim == 40);
+  CHECK(m.config_hash == rl::config_hash(yaml));
+}
+
+TEST_CASE("episode returns and success reach the metrics once episodes end", "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  // catch_underarm_raise: 40-step episodes, 8 steps per update: episodes end in update 5
+  rl::train_new(test::tiny_yaml("catch_underarm_raise", {"train.steps=192"}), dir, quiet());
+  const auto ret = metric(dir, "return"), eps = metric(dir, "episodes");
+  REQUIRE(ret.size() == 6);
+  CHECK(std::isnan(ret[0]));
+  CHECK(eps[4] == 4);
+  CHECK(std::isfinite(ret[4]));
+  CHECK(ret[4] > 0);
+  CHECK(metric(dir, "success")[4] >= 0);
+  CHECK(metric(dir, "length")[4] == 40);
+}
+
+TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken one does",
+          "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  auto o = quiet();
+  o.stop_after_updates = 2;
+  auto r1 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), dir, o);
+  CHECK(r1.interrupted);
+  CHECK(r1.updates == 2);
+  CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == 2);
+  // a row written after the checkpoint (as if the process died before the next one) is kept aside
+  {
+    std::FILE* f = std::fopen((dir + "/metrics.csv").c_str(), "a");
+    REQUIRE(f);
+    std::string row = "3,96";
+    for (int i = 2; i < 21; ++i) row += ",0";
+    std::fputs((row + "\n").c_str(), f);
+    std::fclose(f);
+  }
+  auto r2 = rl::train_resume(dir, quiet());
+  CHECK_FALSE(r2.interrupted);
+  CHECK(r2.updates == 4);
+  CHECK(r2.steps == 128);
+  CHECK(metric(dir, "update") == std::vector<double>{1, 2, 3, 4});
+  CHECK(test::file_exists(dir + "/metrics.after_update_2.csv"));
+  CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == 4);
+  // a finished run resumes to nothing new
+  auto r3 = rl::train_resume(dir, quiet());
+  CHECK(r3.updates == 4);
+}
+
+TEST_CASE("an existing run folder is never overwritten by a new run", "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  rl::train_new(test::tiny_yaml("hand_over"), dir, quiet());
+  const std::string before = read_file(dir + "/metrics.csv");
+  const std::string msg =
+      error_of([&] { rl::train_new(test::tiny_yaml("hand_over"), dir, quiet()); });
+  CHECK(msg.find("exists and is not empty") != std::string::npos);
+  CHECK(msg.find("--resume") != std::string::npos);
+  CHECK(read_file(dir + "/metrics.csv") == before);
+}
+
+TEST_CASE("truncated, corrupted and foreign checkpoints are clear errors", "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string a = tmp.file("a"), b = tmp.file("b");
+  rl::train_new(test::tiny_yaml("hand_over"), a, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), b, quiet());
+  const std::string ck = rl::list_checkpoints(a).back();
+  const std::string bytes = read_file(ck);
+
+  SECTION("truncated") {
+    write_file_atomic(ck, bytes.substr(0, bytes.size() - 100));
+    const std::string msg = error_of([&] { rl::LoadedPolicy p(a); });
+    CHECK(msg.find(ck) != std::string::npos);
+    CHECK(msg.find("truncated") != std::string::npos);
+    const std::string metrics = read_file(a + "/metrics.csv");
+    CHECK(error_of([&] { rl::train_resume(a, quiet()); }).find("truncated") != std::string::npos);
+    CHECK(read_file(a + "/metrics.csv") == metrics);  // nothing rewritten
+    CHECK(read_file(ck).size() == bytes.size() - 100);
+  }
+  SECTION("a flipped byte in the weights") {
+    std::string bad = bytes;
+    bad[bad.size() - 50] ^= 0x5a;
+    write_file_atomic(ck, bad);
+    CHECK(error_of([&] { rl::LoadedPolicy p(a); }).find("corrupted") != std::string::npos);
+  }
+  SECTION("not a checkpoint") {
+    write_file_atomic(ck, "hello\n");
+    CHECK(error_of([&] { rl::LoadedPolicy p(a); }).find("not a bidex checkpoint") !=
+          std::string::npos);
+  }
+  SECTION("another task's checkpoint") {
+    const std::string msg =
+        error_of([&] { rl::LoadedPolicy p(b, rl::list_checkpoints(a).back()); });
+    CHECK(msg.find("trained on task hand_over") != std::string::npos);
+    CHECK(msg.find("is task catch_underarm_raise") != std::string::npos);
+  }
+  SECTION("a checkpoint whose networks differ from the run's config") {
+    // same task, other hidden sizes
+    const std::string c = tmp.file("c");
+    rl::train_new(test::tiny_yaml("hand_over", {"ppo.hidden=[16]"}), c, quiet());
+    const std::string msg = error_of([&] { rl::LoadedPolicy p(c, ck); });
+    CHECK(msg.find("does not fit") != std::string::npos);
+  }
+}
+
+TEST_CASE("a loaded policy evaluates: returns, success and lengths of whole episodes",
+          "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), dir, quiet());
+  rl::LoadedPolicy p(dir);
+  CHECK(p.update() == 2);
+  auto r = rl::evaluate(p, 6, 9, 1);
+  CHECK(r.episodes == 6);
+  CHECK(r.mean_length == 40);  // nothing ends this task early at rest
+  CHECK(r.mean_return > 0);
+  CHECK(r.success_rate >= 0);
+  CHECK(r.faults == 0);
+  // deterministic: the same seed gives the same result
+  auto r2 = rl::evaluate(p, 6, 9, 1);
+  CHECK(r2.mean_return == r.mean_return);
+}
+
+TEST_CASE("bidex train, eval and render --run work from the command line", "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  auto t = test::bidex_run("train --task hand_over -o env.slots=4 -o env.threads=1 "
+                           "-o train.steps=64 -o ppo.hidden=[16] -o ppo.minibatches=2 "
+                           "-o train.device=cpu --run " + dir);
+  INFO(t.out);
+  REQUIRE(t.rc == 0);
+  CHECK(t.out.find("2 updates, 64 slot-steps") != std::string::npos);
+  auto e = test::bidex_run("eval --run " + dir + " --episodes 3 --threads 1 --json " +
+                           tmp.file("eval.json"));
+  INFO(e.out);
+  REQUIRE(e.rc == 0);
+  CHECK(e.out.find("3 episodes, mean return") != std::string::npos);
+  CHECK(read_file(tmp.file("eval.json")).find("\"success_rate\"") != std::string::npos);
+  auto h = test::bidex_run("train --help");
+  CHECK(h.out.find("--resume") != std::string::npos);
+  CHECK(h.out.find("-o,--override") != std::string::npos);
+}
+
+TEST_CASE("bidex train and eval reject bad input with exit 2 and a clear message",
+          "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  auto r = test::bidex_run("train --task juggle");
+  CHECK(r.rc == 2);
+  CHECK(r.out.find("'juggle'") != std::string::npos);
+  CHECK(r.out.find("hand_over") != std::string::npos);
+  r = test::bidex_run("train --task hand_over --algo dqn");
+  CHECK(r.rc == 2);
+  CHECK(r.out.find("'dqn'") != std::string::npos);
+  r = test::bidex_run("train --task hand_over -o ppo.lr");
+  CHECK(r.rc == 2);
+  CHECK(r.out.find("key.path=value") != std::string::npos);
+  r = test::bidex_run("train --task hand_over -o ppo.lrate=1 --run " + tmp.file("x"));
+  CHECK(r.rc == 2);
+  CHECK(r.out.find("ppo.lrate") != std::string::npos);
+  CHECK_FALSE(test::file_exists(tmp.file("x")));  // nothing written for a bad override
+  r = test::bidex_run("eval --run " + tmp.file("nothing"));
+  CHECK(r.rc == 2);
+  CHECK(r.out.find(tmp.file("nothing")) != std::string::npos);
+}
+
+TEST_CASE("SIGINT during training writes a checkpoint that --resume continues", "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  const std::string args = "train --task hand_over -o env.slots=4 -o env.threads=1 "
+                           "-o train.steps=100000 -o ppo.hidden=[16] -o ppo.minibatches=2 "
+                           "-o train.device=cpu -o train.save_interval=1000 --run " + dir;
+  const pid_t pid = ::fork();
+  REQUIRE(pid >= 0);
+  if (pid == 0) {
+    std::string cmd = "exec '";
+    cmd.append(BIDEX_BINARY).append("' ").append(args).append(" > /dev/null 2>&1");
+    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), static_cast<char*>(nullptr));
+    ::_exit(127);
+  }
+  // wait until a few updates are logged, then interrupt
+  for (int i = 0; i < 600; ++i) {
+    if (test::file_exists(dir + "/metrics.csv") && metric(dir, "update").size() >= 3) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  REQUIRE(WIFEXITED(status));
+  CHECK(WEXITSTATUS(status) == 130);
+  auto cks = rl::list_checkpoints(dir);
+  REQUIRE(cks.size() == 1);  // save_interval 1000: only the one written on the signal
+  const int64_t at = rl::read_checkpoint_meta(cks.back()).update;
+  CHECK(at >= 3);
+  CHECK(metric(dir, "update").back() == at);
+  auto r = test::bidex_run("train --resume " + dir + " --stop-after " + std::to_string(at + 2));
+  INFO(r.out);
+  CHECK(r.rc == 130);
+  CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == at + 2);
+}
