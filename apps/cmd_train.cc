@@ -32,6 +32,7 @@ void add_train_command(CLI::App& app) {
     std::string task, algo = "ppo", config, run, resume;
     std::vector<std::string> overrides;
     int64_t stop_after = 0;
+    double time_limit = 0;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -49,8 +50,13 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--stop-after", o->stop_after,
                   "Stop as Ctrl-C would after this many updates in total (for tests and "
                   "staged runs)");
+  cmd->add_option("--time-limit", o->time_limit,
+                  "Stop as Ctrl-C would once this session has trained this many seconds "
+                  "(a checkpoint is written; --resume continues)")
+      ->check(CLI::PositiveNumber);
   cmd->footer(
       "Examples:\n"
+      "  bidex train --task catch_underarm_raise          # a small run, a few minutes on 2 cores\n"
       "  bidex train --task hand_over --algo ppo -o env.slots=64 -o train.steps=200000\n"
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
@@ -58,6 +64,7 @@ void add_train_command(CLI::App& app) {
     rl::TrainOptions to;
     to.command = command_line();
     to.stop_after_updates = o->stop_after;
+    to.time_limit_s = o->time_limit;
     rl::TrainResult r;
     if (!o->resume.empty()) {
       if (!o->task.empty() || !o->overrides.empty() || !o->config.empty() || !o->run.empty())

@@ -7,7 +7,7 @@ out=$1; shift
 bidex=${1:-build/apps/bidex}; shift || true
 seeds=("$@"); [ ${#seeds[@]} -gt 0 ] || seeds=(0 1 2 3)
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
-rand=$("$bidex" play --task catch_underarm_raise --policy random --slots 64 --steps 40 --seed 777 --json "$tmp/random.json" >/dev/null && python3 -c "import json;print(json.load(open('$tmp/random.json'))['mean_return'])")
+rand=$("$bidex" play --task catch_underarm_raise --policy random --slots 64 --steps 40 --seed 777 --json "$tmp/random.json" >/dev/null && python3 -c "import json;print(json.load(open('$tmp/random.json'))['episodes']['mean_return'])")
 rows=""
 for s in "${seeds[@]}"; do
   start=$(date +%s.%N)

@@ -273,6 +273,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   int k0 = 0;
   torch::Tensor obs = upload(false, &k0).narrow(0, 0, int64_t(N) * D).view({N, D});
   bool stopped = false;
+  const double session_start = now();
   while (s.update < total_updates) {
     const double t_iter = now();
     double sim_s = 0;
@@ -353,7 +354,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                      fmt("%.3g", shown_return) + " success " + fmt("%.2f", shown_success));
       bar->update(std::min(s.steps, s.cfg.steps));
     }
-    if (opt.stop_after_updates > 0 && s.update >= opt.stop_after_updates &&
+    const bool out_of_time = opt.time_limit_s > 0 && now() - session_start >= opt.time_limit_s;
+    if (((opt.stop_after_updates > 0 && s.update >= opt.stop_after_updates) || out_of_time) &&
         s.update < total_updates) {
       stopped = true;
       break;

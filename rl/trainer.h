@@ -17,6 +17,7 @@ namespace bidex::rl {
 struct TrainOptions {
   bool progress = true;           // the progress bar on stderr
   int64_t stop_after_updates = 0; // > 0: stop as Ctrl-C would after this many updates in total
+  double time_limit_s = 0;        // > 0: stop as Ctrl-C would once this session trained this long
   std::string command;            // recorded in run.json
 };
 
