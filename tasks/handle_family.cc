@@ -192,19 +192,29 @@ std::string box(const std::string& name, double hx, double hy, double hz, double
          num(hz) + "\" pos=\"" + num(x) + " " + num(y) + " " + num(z) + "\"" + extra + "/>\n";
 }
 
-// The pot: two boxes turned 45 degrees to each other (an octagonal body), two handle boxes.
+// The pot: an octagonal body (0.22 m across the flats) as four bars, each as long as the
+// octagon is wide and as wide as one of its sides, turned by 0, 45, 90 and 135 degrees (their
+// union is the octagon); two handle boxes.
 std::string pot_mjcf(const HandleParams::Pot& pot) {
   const double zc = geo::kPotBottom + geo::kPotHalfHeight;
-  const double body_mass = 0.9 * pot.mass / 2, handle_mass = 0.1 * pot.mass / 2;
+  const double body_mass = 0.9 * pot.mass / 4, handle_mass = 0.1 * pot.mass / 2;
+  const double side_half = geo::kPotHalfWidth * std::tan(M_PI / 8);  // half an octagon side
   const std::string body = std::string(kCollide) + " friction=\"" + num(pot.friction) +
-                           " 0.005 0.0001\" rgba=\"0.55 0.57 0.6 1\"";
+                           " 0.005 0.0001\" rgba=\"0.55 0.57 0.6 1\" mass=\"" + num(body_mass) +
+                           "\"";
   const std::string handle =
       std::string(kCollide) + " friction=\"1 0.005 0.0001\" rgba=\"0.2 0.2 0.22 1\"";
   std::string x;
-  x += box("pot_body_a", geo::kPotHalfWidth, geo::kPotHalfWidth, geo::kPotHalfHeight, 0, 0, zc,
-           body + " mass=\"" + num(body_mass) + "\"");
-  x += box("pot_body_b", geo::kPotHalfWidth, geo::kPotHalfWidth, geo::kPotHalfHeight, 0, 0, zc,
-           body + " mass=\"" + num(body_mass) + "\" euler=\"0 0 0.7853981634\"");
+  // the 0 and 90 degree bars stand on the table (a cross footprint); the 90 degree one is
+  // 0.5 mm lower at the top and the diagonal ones 1 mm shorter at both ends, so that only two
+  // bars touch the table and no two top faces overlap in pictures
+  const char* names[4] = {"pot_body_0", "pot_body_45", "pot_body_90", "pot_body_135"};
+  for (int k = 0; k < 4; ++k) {
+    const double trim = k == 2 ? 0.00025 : (k % 2 ? 0.001 : 0.0);
+    const double z = k == 2 ? zc - trim : zc;
+    x += box(names[k], geo::kPotHalfWidth, side_half, geo::kPotHalfHeight - trim, 0, 0, z,
+             body + " euler=\"0 0 " + num(k * M_PI / 4) + "\"");
+  }
   // handles: 6 cm long (y), 6 cm wide (x), 1.6 cm thick, from the wall out to 0.18 m
   for (int s : {1, -1}) {
     x += box(s > 0 ? "pot_handle_right" : "pot_handle_left", 0.03, 0.03, 0.008, 0,
@@ -268,8 +278,9 @@ HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
 
 sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
                                     const sim::PhysicsOptions& physics) const {
-  // room for the object's contacts: the pot's two boxes rest on the table with up to 8 contacts
-  // each; the door's large panels meet many finger segments at once (sizes held by the soaks)
+  // room for the object's contacts: two of the pot's bars rest on the table with up to 8
+  // contacts each; the door's large panels meet many finger segments at once (sizes held by
+  // the soaks)
   sim::PhysicsOptions ph = physics;
   ph.njmax += 128;
   ph.nconmax += 32;

@@ -3,8 +3,8 @@
 // object to its goal (the pot to a point above the table, the door leaves apart or together).
 // The five tasks share this code and differ only in their spec and their YAML (each task's own
 // folder holds both, and a README with every decision). The objects are built here from
-// primitives: a pot (two boxes as an octagonal body, two handle boxes) on a table, or a double
-// door (a fixed frame and two hinged leaves with bar handles).
+// primitives: a pot (four box bars as an octagonal body, two handle boxes) on a table, or a
+// double door (a fixed frame and two hinged leaves with bar handles).
 #pragma once
 
 #include <memory>
@@ -88,8 +88,8 @@ std::unique_ptr<Task> make_handle_task(const TaskSpec& spec, const std::string& 
 
 // Fixed geometry of the built objects (metres; tasks/<id>/README.md).
 namespace handle_geometry {
-// pot: body 0.22 m across the flats, 0.166 m tall, bottom 0.05 m below the origin; handle points
-// at (0, +-0.15, 0.06) in the pot frame (right handle on +y)
+// pot: octagonal body 0.22 m across the flats, 0.166 m tall, bottom 0.05 m below the origin;
+// handle points at (0, +-0.15, 0.06) in the pot frame (right handle on +y)
 constexpr double kPotHalfWidth = 0.11, kPotHalfHeight = 0.083, kPotBottom = -0.05;
 constexpr double kPotHandleY = 0.15, kPotHandleZ = 0.06;
 // door: hinges at y = +-0.42 (right leaf on +y), leaves 0.415 x 0.93 x 0.02 m, handle points

@@ -122,8 +122,8 @@ TEST_CASE("tip_point and palm_point are the original's points on the live bodies
       for (int k = 0; k < 5; ++k) {
         double got[3];
         tasks::tip_point(task.hand(h), t.state, k, got);
-        const auto want =
-            body_point(env->batch().data(s), body_id(*env, prefix(h) + kTipBodies[k]), {0, 0, 0.02});
+        const int b = body_id(*env, prefix(h) + kTipBodies[k]);
+        const auto want = body_point(env->batch().data(s), b, {0, 0, 0.02});
         for (int i = 0; i < 3; ++i) CHECK(got[i] == Approx(want[i]).margin(1e-9));
       }
       double got[3];
@@ -147,9 +147,10 @@ TEST_CASE("handle tasks: layouts are the paper's tables", "[tasks][handle][layou
       {"object.pose", 398, 404},   {"object.linvel", 405, 407},   {"object.angvel", 408, 410},
       {"goal.pose", 411, 417},     {"goal.rot_diff", 418, 421},   {"right_handle.pos", 422, 424},
       {"left_handle.pos", 425, 427}};
-  const std::vector<PaperRow> act = {{"right.joints", 0, 19},          {"right.base_translation", 20, 22},
-                                     {"right.base_rotation", 23, 25},  {"left.joints", 26, 45},
-                                     {"left.base_translation", 46, 48}, {"left.base_rotation", 49, 51}};
+  const std::vector<PaperRow> act = {
+      {"right.joints", 0, 19},          {"right.base_translation", 20, 22},
+      {"right.base_rotation", 23, 25},  {"left.joints", 26, 45},
+      {"left.base_translation", 46, 48}, {"left.base_rotation", 49, 51}};
   for (const char* id : kIds) {
     INFO(id);
     const auto& sp = tasks::find_task(id).spec();
@@ -486,7 +487,8 @@ TEST_CASE("handle tasks: bad YAML is a ConfigError naming file, key, expected, a
     const char* actual;
   };
   const std::vector<Case> cases = {
-      {"door_open_outward", {}, "colour: red\n", "colour", "one of the keys {", "unknown key 'colour'"},
+      {"door_open_outward", {}, "colour: red\n", "colour", "one of the keys {",
+       "unknown key 'colour'"},
       {"lift_underarm", {{"goal", "[0, -0.6, 0.85]\n  lid: true"}}, "", "pot.lid", "goal",
        "unknown key 'lid'"},
       {"door_close_inward", {{"damping", ""}}, "", "door.damping", "a value for the required key",
@@ -559,7 +561,8 @@ void soak(const std::string& id) {
 }
 }  // namespace
 
-TEST_CASE("soak: lift_underarm: 100k random slot-steps without a fault", "[tasks][soak][handle_soak]") {
+TEST_CASE("soak: lift_underarm: 100k random slot-steps without a fault",
+          "[tasks][soak][handle_soak]") {
   soak("lift_underarm");
 }
 TEST_CASE("soak: door_open_outward: 100k random slot-steps without a fault",
