@@ -184,7 +184,7 @@ std::string num(double v) {
 }
 
 // collision bits as the scene builder's objects: world 1, colliding with world and both hands
-const char* kCollide = " contype=\"1\" conaffinity=\"7\" condim=\"3\"";
+constexpr const char* kCollide = " contype=\"1\" conaffinity=\"7\" condim=\"3\"";
 
 std::string box(const std::string& name, double hx, double hy, double hz, double x, double y,
                 double z, const std::string& extra) {
