@@ -251,6 +251,32 @@ TEST_CASE("lift_underarm: the goal gate and fingertip distances when configured"
   CHECK(terms[sp.term_index("goal")] == 0.0);  // gated: the hands are not at the handles
 }
 
+TEST_CASE("lift_underarm: the goal gate opens with both palms at their handles",
+          "[tasks][handle][reward][oracle]") {
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "lift_underarm", {{"goal_gate", "0.08"}});
+  auto env = make_env("lift_underarm", 1, 1, 1, file);
+  env->reset();
+  const auto& sp = env->spec();
+  std::vector<double> terms;
+  evaluate(*env, 0, terms);
+  CHECK(terms[sp.term_index("goal")] == 0.0);  // palms 0.14 m from the handles at the reset
+  // shift each free base (world-axis slides) by handle - palm point: the palms at the handles
+  const std::array<std::array<double, 3>, 2> handle = {{{0, -0.45, 0.51}, {0, -0.75, 0.51}}};
+  mjData* d = env->batch().data(0);
+  for (int h = 0; h < 2; ++h) {
+    const auto palm = palm_of(*env, 0, h);
+    const auto& hi = env->model().hands()[static_cast<size_t>(h)];
+    REQUIRE(hi.side == (h == 0 ? sim::Side::kRight : sim::Side::kLeft));
+    for (int k = 0; k < 3; ++k) d->qpos[hi.base_qpos_adr + k] += handle[h][k] - palm[k];
+  }
+  sync(*env, 0);
+  evaluate(*env, 0, terms);
+  CHECK(-terms[sp.term_index("right_hand")] == Approx(0).margin(1e-9));
+  CHECK(-terms[sp.term_index("left_hand")] == Approx(0).margin(1e-9));
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * (0.985 - 0.4)).margin(1e-9));
+}
+
 TEST_CASE("doors: reward terms on crafted states", "[tasks][handle][reward]") {
   for (const auto& f : kDoors) {
     INFO(f.id);
