@@ -12,6 +12,11 @@ const std::vector<TaskEntry>& task_registry() {
       {catch_over2underarm_spec, make_catch_over2underarm},
       {catch_abreast_spec, make_catch_abreast},
       {two_catch_underarm_spec, make_two_catch_underarm},
+      {lift_underarm_spec, make_lift_underarm},
+      {door_open_outward_spec, make_door_open_outward},
+      {door_close_inward_spec, make_door_close_inward},
+      {door_open_inward_spec, make_door_open_inward},
+      {door_close_outward_spec, make_door_close_outward},
   };
   return all;
 }

@@ -34,6 +34,11 @@ BIDEX_TASK(catch_underarm)
 BIDEX_TASK(catch_over2underarm)
 BIDEX_TASK(catch_abreast)
 BIDEX_TASK(two_catch_underarm)
+BIDEX_TASK(lift_underarm)
+BIDEX_TASK(door_open_outward)
+BIDEX_TASK(door_close_inward)
+BIDEX_TASK(door_open_inward)
+BIDEX_TASK(door_close_outward)
 BIDEX_TASK(catch_underarm_raise)
 #undef BIDEX_TASK
 

@@ -135,8 +135,9 @@ std::array<double, 3> rpy_of(const double* q) {
 
 }  // namespace
 
+// (the catch family's; every other family's test file checks its own tasks the same way)
 TEST_CASE("every task's layouts are the paper's index tables", "[tasks][layout]") {
-  REQUIRE(tasks::task_registry().size() == paper_tasks().size());
+  REQUIRE(tasks::task_registry().size() >= paper_tasks().size());
   for (size_t i = 0; i < paper_tasks().size(); ++i) {
     const auto& p = paper_tasks()[i];
     INFO("task " << p.id);

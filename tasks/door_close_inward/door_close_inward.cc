@@ -1,0 +1,13 @@
+// door_close_inward: Door Close Inward (the original's ShadowHandDoorCloseInward);
+// defaults in door_close_inward.yaml, decisions in README.md.
+#include "tasks/handle_family.h"
+#include "tasks/registry.h"
+
+namespace bidex::tasks {
+
+BIDEX_DEFINE_HANDLE_TASK(door_close_inward, "Door Close Inward", "ShadowHandDoorCloseInward",
+                         HumanAge{13, 13, "13", false},
+                         Difficulty::kEasy, "Opens and closes cupboard and oven doors.",
+                         /*episode_length=*/250, /*object=*/"door")
+
+}  // namespace bidex::tasks

@@ -1,0 +1,464 @@
+#include "tasks/handle_family.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <mujoco/mujoco.h>
+
+#include "core/error.h"
+#include "core/yaml.h"
+#include "tasks/math.h"
+#include "tasks/objects.h"
+
+namespace bidex::tasks {
+
+namespace geo = handle_geometry;
+
+// ---- spec ---------------------------------------------------------------------------------
+
+TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string original_name,
+                            HumanAge age, Difficulty difficulty, std::string skill,
+                            int episode_length, const std::string& object) {
+  TaskSpec s;
+  s.id = std::move(id);
+  s.paper_name = std::move(paper_name);
+  s.original_name = std::move(original_name);
+  s.age = std::move(age);
+  s.difficulty = difficulty;
+  s.skill = std::move(skill);
+  s.episode_length = episode_length;
+  s.free_base = true;
+  add_hand_obs(s.obs, "right", true);
+  add_hand_obs(s.obs, "left", true);
+  s.obs.add("object.pose", 7, "the " + object + "'s position (m) and orientation (x, y, z, w)");
+  s.obs.add("object.linvel", 3, "the " + object + "'s linear velocity (m/s), world frame");
+  s.obs.add("object.angvel", 3, "the " + object + "'s angular velocity (rad/s) x 0.2");
+  s.obs.add("goal.pose", 7, "goal position and orientation (x, y, z, w)", true);
+  s.obs.add("goal.rot_diff", 4,
+            "object orientation times the goal's conjugate, (x, y, z, w): the goal rot - object "
+            "rot of the paper",
+            true);
+  s.obs.add("right_handle.pos", 3, "the " + object + "'s right handle point (m), world frame");
+  s.obs.add("left_handle.pos", 3, "the " + object + "'s left handle point (m), world frame");
+  add_hand_act(s.act, "right", true);
+  add_hand_act(s.act, "left", true);
+  s.agents = agents_per_hand(s.obs, s.act);
+  s.reward_terms.push_back({"constant", "reward.constant (0.2 in the paper)"});
+  s.reward_terms.push_back({"right_hand", "-d_right: the right hand's distance to its handle (m)"});
+  s.reward_terms.push_back({"left_hand", "-d_left: the left hand's distance to its handle (m)"});
+  s.reward_terms.push_back({"goal", "reward.goal_weight x (reward.goal_offset - d_target)"});
+  return s;
+}
+
+// ---- config -------------------------------------------------------------------------------
+
+namespace {
+
+sim::Vec3 vec3(const YamlView& v) { return v.as<std::array<double, 3>>(); }
+
+double number(const YamlView& parent, const char* key, double lo, double hi, const char* what) {
+  auto v = parent.child(key);
+  double x = v.as<double>();
+  if (!(x >= lo && x <= hi)) v.fail(what, v.repr());
+  return x;
+}
+
+HandleParams::HandPose hand_pose(const YamlView& v) {
+  v.allow_keys({"pos", "rpy"});
+  HandleParams::HandPose h;
+  h.pos = vec3(v.child("pos"));
+  h.rpy = vec3(v.child("rpy"));
+  return h;
+}
+
+// a choice among two words
+bool word(const YamlView& parent, const char* key, const char* yes, const char* no) {
+  auto v = parent.child(key);
+  const auto w = v.as<std::string>();
+  if (w == yes) return true;
+  if (w != no) v.fail(std::string("'") + yes + "' or '" + no + "'", v.repr());
+  return false;
+}
+
+}  // namespace
+
+HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
+  const YamlView root = YamlView::load_file(file);
+  const bool door = spec.id.rfind("door_", 0) == 0;
+  const char* object_key = door ? "door" : "pot";
+  root.allow_keys({"episode_length", "hands", "base", object_key, "reward", "success",
+                   "termination"});
+  HandleParams p;
+  p.file = file;
+  p.kind = door ? HandleParams::Kind::kDoor : HandleParams::Kind::kPot;
+  {
+    auto v = root.child("episode_length");
+    p.episode_length = v.as<int>();
+    if (p.episode_length <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
+  }
+  {
+    auto h = root.child("hands");
+    h.allow_keys({"right", "left"});
+    p.right = hand_pose(h.child("right"));
+    p.left = hand_pose(h.child("left"));
+  }
+  {
+    auto b = root.child("base");
+    b.allow_keys({"force_scale", "torque_scale"});
+    p.force_scale = number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+    p.torque_scale = number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+  }
+  if (door) {
+    auto d = root.child("door");
+    d.allow_keys({"pos", "swing", "start_angle", "handle_height", "damping", "frictionloss",
+                  "density", "friction"});
+    p.door.pos = vec3(d.child("pos"));
+    p.door.inward = word(d, "swing", "inward", "outward");
+    p.door.start_angle = number(d, "start_angle", 0, M_PI / 2, "an angle in [0, pi/2] rad");
+    p.door.handle_height =
+        number(d, "handle_height", -geo::kLeafHeight / 2 + 0.07, geo::kLeafHeight / 2 - 0.07,
+               "a height within the leaf, [-0.395, 0.395] m from the door's centre");
+    p.door.damping = number(d, "damping", 0, 1e3, "a damping in [0, 1000] N m s/rad");
+    p.door.frictionloss = number(d, "frictionloss", 0, 1e3, "a friction in [0, 1000] N m");
+    p.door.density = number(d, "density", 1, 1e5, "a density in [1, 1e5] kg/m^3");
+    p.door.friction = number(d, "friction", 0.01, 10, "a friction coefficient in [0.01, 10]");
+  } else {
+    auto d = root.child("pot");
+    d.allow_keys({"pos", "mass", "friction", "table_pos", "table_half_size", "goal"});
+    p.pot.pos = vec3(d.child("pos"));
+    p.pot.mass = number(d, "mass", 0.01, 100, "a mass in [0.01, 100] kg");
+    p.pot.friction = number(d, "friction", 0.01, 10, "a friction coefficient in [0.01, 10]");
+    p.pot.table_pos = vec3(d.child("table_pos"));
+    auto hs = d.child("table_half_size");
+    p.pot.table_half_size = vec3(hs);
+    for (double x : p.pot.table_half_size)
+      if (!(x > 0)) hs.fail("three half sizes > 0 (m)", hs.repr());
+    p.pot.goal = vec3(d.child("goal"));
+  }
+  {
+    auto r = root.child("reward");
+    r.allow_keys({"hand_point", "constant", "goal_weight", "goal_offset", "goal_gate"});
+    p.palm_distance = word(r, "hand_point", "palm", "fingertips");
+    p.constant = number(r, "constant", -1e3, 1e3, "a constant in [-1000, 1000]");
+    p.goal_weight = number(r, "goal_weight", -1e3, 1e3, "a weight in [-1000, 1000]");
+    p.goal_offset = number(r, "goal_offset", -1e3, 1e3, "an offset in [-1000, 1000] m");
+    p.goal_gate = number(r, "goal_gate", 0, 100, "a distance in [0, 100] m (0: off)");
+  }
+  {
+    auto s = root.child("success");
+    if (door) {
+      s.allow_keys({"handle_gap", "when"});
+      p.success_gap = number(s, "handle_gap", 0, 10, "a distance in [0, 10] m");
+      p.success_wider = word(s, "when", "wider", "narrower");
+    } else {
+      s.allow_keys({"distance"});
+      p.success_distance = number(s, "distance", 0, 10, "a distance in [0, 10] m");
+    }
+  }
+  {
+    auto t = root.child("termination");
+    if (door) {
+      t.allow_keys({"max_hand_distance"});
+    } else {
+      t.allow_keys({"drop_height", "max_hand_distance"});
+      p.drop_height = number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
+    }
+    p.max_hand_distance =
+        number(t, "max_hand_distance", 0, 100, "a distance in [0, 100] m (0: off)");
+  }
+  return p;
+}
+
+std::unique_ptr<Task> make_handle_task(const TaskSpec& spec, const std::string& config_file) {
+  return std::make_unique<HandleTask>(spec, load_handle_params(config_file, spec));
+}
+
+// ---- objects ------------------------------------------------------------------------------
+
+namespace {
+
+std::string num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+
+// collision bits as the scene builder's objects: world 1, colliding with world and both hands
+constexpr const char* kCollide = " contype=\"1\" conaffinity=\"7\" condim=\"3\"";
+
+std::string box(const std::string& name, double hx, double hy, double hz, double x, double y,
+                double z, const std::string& extra) {
+  return "<geom name=\"" + name + "\" type=\"box\" size=\"" + num(hx) + " " + num(hy) + " " +
+         num(hz) + "\" pos=\"" + num(x) + " " + num(y) + " " + num(z) + "\"" + extra + "/>\n";
+}
+
+// The pot: an octagonal body (0.22 m across the flats) as four bars, each as long as the
+// octagon is wide and as wide as one of its sides, turned by 0, 45, 90 and 135 degrees (their
+// union is the octagon); two handle boxes.
+std::string pot_mjcf(const HandleParams::Pot& pot) {
+  const double zc = geo::kPotBottom + geo::kPotHalfHeight;
+  const double body_mass = 0.9 * pot.mass / 4, handle_mass = 0.1 * pot.mass / 2;
+  const double side_half = geo::kPotHalfWidth * std::tan(M_PI / 8);  // half an octagon side
+  const std::string body = std::string(kCollide) + " friction=\"" + num(pot.friction) +
+                           " 0.005 0.0001\" rgba=\"0.55 0.57 0.6 1\" mass=\"" + num(body_mass) +
+                           "\"";
+  const std::string handle =
+      std::string(kCollide) + " friction=\"1 0.005 0.0001\" rgba=\"0.2 0.2 0.22 1\"";
+  std::string x;
+  // the 0 and 90 degree bars stand on the table (a cross footprint); the 90 degree one is
+  // 0.5 mm lower at the top and the diagonal ones 1 mm shorter at both ends, so that only two
+  // bars touch the table and no two top faces overlap in pictures
+  const char* names[4] = {"pot_body_0", "pot_body_45", "pot_body_90", "pot_body_135"};
+  for (int k = 0; k < 4; ++k) {
+    const double trim = k == 2 ? 0.00025 : (k % 2 ? 0.001 : 0.0);
+    const double z = k == 2 ? zc - trim : zc;
+    x += box(names[k], geo::kPotHalfWidth, side_half, geo::kPotHalfHeight - trim, 0, 0, z,
+             body + " euler=\"0 0 " + num(k * M_PI / 4) + "\"");
+  }
+  // handles: 6 cm long (y), 6 cm wide (x), 1.6 cm thick, from the wall out to 0.18 m
+  for (int s : {1, -1}) {
+    x += box(s > 0 ? "pot_handle_right" : "pot_handle_left", 0.03, 0.03, 0.008, 0,
+             s * geo::kPotHandleY, geo::kPotHandleZ, handle + " mass=\"" + num(handle_mass) + "\"");
+  }
+  return x;
+}
+
+// The door: frame side panels (part of the fixed root body) and two leaves, each a child body at
+// its hinge with a panel, a bar handle and the bar's two posts.
+std::string door_mjcf(const HandleParams::Door& d) {
+  const std::string frame = std::string(kCollide) + " friction=\"" + num(d.friction) +
+                            " 0.005 0.0001\" rgba=\"0.45 0.35 0.25 1\"";
+  const std::string leaf = std::string(kCollide) + " friction=\"" + num(d.friction) +
+                           " 0.005 0.0001\" density=\"" + num(d.density) +
+                           "\" rgba=\"0.75 0.6 0.42 1\"";
+  const std::string metal = std::string(kCollide) + " friction=\"" + num(d.friction) +
+                            " 0.005 0.0001\" density=\"" + num(d.density) +
+                            "\" rgba=\"0.3 0.3 0.32 1\"";
+  const double hh = geo::kLeafHeight / 2;
+  std::string x;
+  // frame: side panels from |y| = 0.43 to 0.88 (the original's 1.76 m overall width)
+  for (int s : {1, -1})
+    x += box(s > 0 ? "door_frame_right" : "door_frame_left", 0.02, 0.225, hh, 0, s * 0.655, 0,
+             frame + " mass=\"1\"");
+  for (int s : {1, -1}) {  // right leaf (+y) then left
+    const std::string side = s > 0 ? "right" : "left";
+    // outward (away from the hands, -x): right leaf turns about -z, left about +z
+    const double axis = (d.inward ? 1.0 : -1.0) * s;
+    x += "<body name=\"door_" + side + "_leaf\" pos=\"0 " + num(s * geo::kHingeY) + " 0\">\n";
+    x += "<joint name=\"door_" + side + "_hinge\" type=\"hinge\" axis=\"0 0 " + num(axis) +
+         "\" limited=\"true\" range=\"0 1.5707963268\" damping=\"" + num(d.damping) +
+         "\" frictionloss=\"" + num(d.frictionloss) + "\" armature=\"0.01\"/>\n";
+    const double w = geo::kLeafWidth / 2;
+    x += box("door_" + side + "_panel", geo::kLeafThick / 2, w, hh, 0, -s * w, 0, leaf);
+    // handle: a vertical bar at the handle point, on two posts to the panel's face
+    const double hy = -s * geo::kHandleFromHinge, hz = d.handle_height;
+    x += "<geom name=\"door_" + side + "_handle\" type=\"capsule\" size=\"0.01 0.06\" pos=\"" +
+         num(geo::kHandleOut) + " " + num(hy) + " " + num(hz) + "\"" + metal + "/>\n";
+    const double face = geo::kLeafThick / 2, post_x = (face + geo::kHandleOut - 0.01) / 2;
+    const double post_half = (geo::kHandleOut - 0.01 - face) / 2;
+    for (double dz : {0.05, -0.05})
+      x += box("door_" + side + (dz > 0 ? "_post_top" : "_post_bottom"), post_half, 0.006, 0.006,
+               post_x, hy, hz + dz, metal);
+    x += "</body>\n";
+  }
+  return x;
+}
+
+}  // namespace
+
+// ---- task ---------------------------------------------------------------------------------
+
+HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
+    : Task(spec, params.file), p_(std::move(params)) {
+  t_const_ = spec.term_index("constant");
+  t_right_ = spec.term_index("right_hand");
+  t_left_ = spec.term_index("left_hand");
+  t_goal_ = spec.term_index("goal");
+}
+
+sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
+                                    const sim::PhysicsOptions& physics) const {
+  // room for the object's contacts: two of the pot's bars rest on the table with up to 8
+  // contacts each; the door's large panels meet many finger segments at once (sizes held by
+  // the soaks)
+  sim::PhysicsOptions ph = physics;
+  ph.njmax += 128;
+  ph.nconmax += 32;
+  ph.nstack += 24000;
+  sim::SceneBuilder sb(ph);
+  auto pose = [](const HandleParams::HandPose& h) {
+    return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
+  };
+  sb.add_hand(right_hand, {sim::Side::kRight, pose(p_.right), sim::Base::kFree});
+  sb.add_hand(right_hand, {sim::Side::kLeft, pose(p_.left), sim::Base::kFree});
+  sim::ObjectSpec o;
+  o.shape = sim::ObjectSpec::Shape::kMjcf;
+  if (p_.kind == HandleParams::Kind::kPot) {
+    sim::TableSpec table;
+    table.half_size = p_.pot.table_half_size;
+    table.pose.pos = p_.pot.table_pos;
+    sb.add_table(table);
+    o.name = "pot";
+    o.pose.pos = p_.pot.pos;
+    o.free = true;
+    o.mjcf_body = pot_mjcf(p_.pot);
+    sb.add_object(o);
+    // the goal point, drawn as a small translucent sphere that never collides
+    sim::ObjectSpec g;
+    g.name = "goal";
+    g.shape = sim::ObjectSpec::Shape::kSphere;
+    g.size = {0.02, 0.02, 0.02};
+    g.marker = true;
+    g.rgba = {0.2, 0.9, 0.3, 0.5};
+    g.pose.pos = p_.pot.goal;
+    sb.add_object(g);
+  } else {
+    o.name = "door";
+    o.pose.pos = p_.door.pos;
+    o.free = false;
+    o.mjcf_body = door_mjcf(p_.door);
+    sb.add_object(o);
+  }
+  return sb;
+}
+
+void HandleTask::bind(const sim::SimModel& model) {
+  hands_[0] = bind_hand(model, sim::Side::kRight);
+  hands_[1] = bind_hand(model, sim::Side::kLeft);
+  for (auto& h : hands_) {
+    h.force_max = p_.force_scale * 1e5 / 60.0;
+    h.torque_max = p_.torque_scale * 1e3 / 60.0;
+  }
+  const mjModel* m = model.mj();
+  if (p_.kind == HandleParams::Kind::kPot) {
+    const auto* o = model.object("pot");
+    const auto* g = model.object("goal");
+    if (!o || !g || o->qpos_adr < 0 || g->mocap < 0)
+      throw ModelError(spec().id + ": the scene lacks its pot or goal marker");
+    body_ = o->body;
+    qpos_ = o->qpos_adr;
+    dof_ = o->dof_adr;
+    mocap_ = g->mocap;
+    for (int h = 0; h < 2; ++h) {
+      handle_body_[h] = body_;
+      handle_local_[h][0] = 0;
+      handle_local_[h][1] = h == 0 ? geo::kPotHandleY : -geo::kPotHandleY;
+      handle_local_[h][2] = geo::kPotHandleZ;
+    }
+  } else {
+    const auto* o = model.object("door");
+    if (!o) throw ModelError(spec().id + ": the scene lacks its door");
+    body_ = o->body;
+    for (int h = 0; h < 2; ++h) {
+      const std::string side = h == 0 ? "right" : "left";
+      const int b = mj_name2id(m, mjOBJ_BODY, ("door_" + side + "_leaf").c_str());
+      const int j = mj_name2id(m, mjOBJ_JOINT, ("door_" + side + "_hinge").c_str());
+      if (b < 0 || j < 0) throw ModelError(spec().id + ": the scene lacks a door leaf");
+      handle_body_[h] = b;
+      hinge_qpos_[h] = m->jnt_qposadr[j];
+      hinge_dof_[h] = m->jnt_dofadr[j];
+      handle_local_[h][0] = geo::kHandleOut;
+      handle_local_[h][1] = (h == 0 ? -1 : 1) * geo::kHandleFromHinge;
+      handle_local_[h][2] = p_.door.handle_height;
+    }
+  }
+  root_tree_ = m->body_rootid[body_];
+}
+
+void HandleTask::reset(TaskSlot& t) const {
+  // the simulation has restored the scene's state: hands at their mounts at rest, the pot at its
+  // start at rest, the leaves closed; the door tasks set their leaves' start angle
+  mjData* d = t.data;
+  auto& goal = t.task->goal[0];
+  if (p_.kind == HandleParams::Kind::kPot) {
+    for (int k = 0; k < 3; ++k) goal[k] = p_.pot.goal[k];
+    goal[3] = 1;
+    goal[4] = goal[5] = goal[6] = 0;
+    for (int k = 0; k < 3; ++k) d->mocap_pos[3 * mocap_ + k] = goal[k];
+  } else {
+    for (int h = 0; h < 2; ++h) {
+      d->qpos[hinge_qpos_[h]] = p_.door.start_angle;
+      d->qvel[hinge_dof_[h]] = 0;
+    }
+    // the door's goal pose is its own fixed pose (its goal is a leaf angle, not a pose)
+    for (int k = 0; k < 3; ++k) goal[k] = p_.door.pos[k];
+    goal[3] = 1;
+    goal[4] = goal[5] = goal[6] = 0;
+  }
+}
+
+void HandleTask::apply_actions(const float* a, TaskSlot& t) const {
+  const int per_hand = spec().act.dim() / 2;
+  for (int h = 0; h < 2; ++h)
+    apply_hand_actions(hands_[h], a + h * per_hand, t.state.ctrl, t.state.base_wrench);
+}
+
+void HandleTask::handle_point(const sim::SlotView& v, int h, double* out) const {
+  const int b = handle_body_[h];
+  math::frame_point(out, v.xpos + 3 * b, v.xquat + 4 * b, handle_local_[h]);
+}
+
+double HandleTask::hand_distance(const sim::SlotView& v, int h) const {
+  double hp[3];
+  handle_point(v, h, hp);
+  if (!p_.palm_distance) return tip_distance_sum(hands_[h], v, hp);
+  double palm[3];
+  palm_point(hands_[h], v, palm);
+  return math::dist3(palm, hp);
+}
+
+double HandleTask::target_distance(const TaskSlot& t) const {
+  if (p_.kind == HandleParams::Kind::kPot)
+    return math::dist3(t.state.xpos + 3 * body_, t.task->goal[0].data());
+  double r[3], l[3];
+  handle_point(t.state, 0, r);
+  handle_point(t.state, 1, l);
+  return math::dist3(r, l);
+}
+
+bool HandleTask::evaluate(TaskSlot& t, double* terms) const {
+  const auto& v = t.state;
+  const double dr = hand_distance(v, 0), dl = hand_distance(v, 1);
+  const double dt = target_distance(t);
+  terms[t_const_] = p_.constant;
+  terms[t_right_] = -dr;
+  terms[t_left_] = -dl;
+  const bool gate = p_.goal_gate <= 0 || (dr < p_.goal_gate && dl < p_.goal_gate);
+  terms[t_goal_] = gate ? p_.goal_weight * (p_.goal_offset - dt) : 0.0;
+
+  // success (kept until the reset)
+  bool success;
+  if (p_.kind == HandleParams::Kind::kPot) {
+    success = dt < p_.success_distance;
+  } else {
+    double r[3], l[3];
+    handle_point(v, 0, r);
+    handle_point(v, 1, l);
+    const double gap = std::abs(r[1] - l[1]);
+    success = p_.success_wider ? gap > p_.success_gap : gap < p_.success_gap;
+  }
+  if (success) t.task->success = true;
+
+  // termination: a hand too far from its handle, the pot dropped
+  bool end = p_.max_hand_distance > 0 && (dr >= p_.max_hand_distance || dl >= p_.max_hand_distance);
+  if (p_.kind == HandleParams::Kind::kPot && v.xpos[3 * body_ + 2] <= p_.drop_height) end = true;
+  return end;
+}
+
+void HandleTask::observe(const TaskSlot& t, float* obs) const {
+  const auto& v = t.state;
+  const int per_hand = spec().act.dim() / 2;
+  observe_hand(hands_[0], v, t.task->action.data(), obs);
+  observe_hand(hands_[1], v, t.task->action.data() + per_hand, obs + kHandObsFree);
+  float* o = obs + 2 * kHandObsFree;
+  observe_object(v, body_, root_tree_, o);
+  observe_goal(t.task->goal[0].data(), v.xquat + 4 * body_, o + 13);
+  o += 24;
+  for (int h = 0; h < 2; ++h) {
+    double p[3];
+    handle_point(v, h, p);
+    for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(p[k]);
+  }
+}
+
+}  // namespace bidex::tasks

@@ -1,0 +1,609 @@
+// The two-handle family (lift_underarm, door_open_outward, door_close_inward, door_open_inward,
+// door_close_outward) and the shared reward points of tasks/hands.h: layouts against the paper's
+// tables, reward terms on crafted states against values worked out here (independently of the
+// task's code: handle points from the geometry, fingertip and palm points from mjData's body
+// frames), an oracle per task (the object driven into its goal state fires success and gives
+// the goal term its best value; the opposite state does not), resets, random-action smoke
+// tests, determinism across thread counts, bad YAML errors and a 100k slot-step soak per task.
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cstring>
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+#include <mujoco/mujoco.h>
+
+#include "tasks/handle_family.h"
+#include "tests/tasks/task_fixture.h"
+
+using namespace bidex;
+using namespace bidex::test;
+
+namespace {
+
+const std::array<const char*, 5> kIds = {"lift_underarm", "door_open_outward",
+                                         "door_close_inward", "door_open_inward",
+                                         "door_close_outward"};
+
+// What the paper and upstream.md say of each task (written out here, not read from the YAMLs).
+struct DoorFacts {
+  const char* id;
+  bool inward;       // leaves open towards the hands
+  double start;      // leaf angle at reset
+  bool open_task;    // success when the handles are wider apart than 0.5 m
+  double max_hand;   // termination distance (sum of fingertip distances)
+  std::array<double, 3> right_mount;
+};
+const std::array<DoorFacts, 4> kDoors = {{
+    {"door_open_outward", false, 0, true, 1.5, {0.55, 0.2, 0.6}},
+    {"door_close_inward", true, M_PI / 2, false, 1.5, {0.9, 0.5, 0.6}},
+    {"door_open_inward", true, 0, true, 1.5, {0.55, 0.2, 0.6}},
+    {"door_close_outward", false, M_PI / 2, false, 3.0, {0.55, 0.2, 0.6}},
+}};
+
+const tasks::HandleTask& handle_task(tasks::TaskEnv& env) {
+  return dynamic_cast<const tasks::HandleTask&>(env.task());
+}
+
+// A point at `local` in body b's frame, from mjData's xpos/xmat (not the batch's quaternions).
+std::array<double, 3> body_point(const mjData* d, int b, const std::array<double, 3>& local) {
+  const double* R = d->xmat + 9 * b;
+  std::array<double, 3> p{};
+  for (int i = 0; i < 3; ++i)
+    p[i] = d->xpos[3 * b + i] + R[3 * i] * local[0] + R[3 * i + 1] * local[1] +
+           R[3 * i + 2] * local[2];
+  return p;
+}
+double dist(const std::array<double, 3>& a, const std::array<double, 3>& b) {
+  return std::sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                   (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+const char* kTipBodies[5] = {"ffdistal", "mfdistal", "rfdistal", "lfdistal", "thdistal"};
+std::string prefix(int h) { return h == 0 ? "rh_" : "lh_"; }
+
+std::array<double, 3> palm_of(tasks::TaskEnv& env, int s, int h) {
+  return body_point(env.batch().data(s), body_id(env, prefix(h) + "palm"), {0, -0.02, 0.08});
+}
+double tip_sum(tasks::TaskEnv& env, int s, int h, const std::array<double, 3>& p) {
+  double sum = 0;
+  for (const char* t : kTipBodies)
+    sum += dist(body_point(env.batch().data(s), body_id(env, prefix(h) + t), {0, 0, 0.02}), p);
+  return sum;
+}
+
+// Door handle point of leaf h (0 right, 1 left) at hinge angle q, from the geometry: hinge at
+// (0, +-0.42, 0) from the door's origin, handle 0.39 m from the hinge towards the middle, 0.04 m
+// towards the hands (+x), at the handle height; outward leaves turn towards -x.
+std::array<double, 3> door_handle(const std::array<double, 3>& door, double height, bool inward,
+                                  int h, double q) {
+  const double s = h == 0 ? 1 : -1;          // right leaf on +y
+  const double lx = 0.04, ly = -s * 0.39;    // closed-leaf offsets from the hinge
+  const double phi = (inward ? 1 : -1) * s * q;  // rotation about +z
+  return {door[0] + lx * std::cos(phi) - ly * std::sin(phi),
+          door[1] + s * 0.42 + lx * std::sin(phi) + ly * std::cos(phi), door[2] + height};
+}
+
+void set_hinges(tasks::TaskEnv& env, int s, double qr, double ql) {
+  const auto& task = handle_task(env);
+  mjData* d = env.batch().data(s);
+  d->qpos[task.hinge_qpos(0)] = qr;
+  d->qpos[task.hinge_qpos(1)] = ql;
+  d->qvel[task.hinge_dof(0)] = d->qvel[task.hinge_dof(1)] = 0;
+  sync(env, s);
+}
+
+struct PaperRow {
+  const char* name;
+  int first, last;
+};
+
+}  // namespace
+
+// ---- shared reward points -----------------------------------------------------------------
+
+TEST_CASE("tip_point and palm_point are the original's points on the live bodies",
+          "[tasks][handle][hands]") {
+  auto env = make_env("lift_underarm", 2, 3, 1);
+  env->reset();
+  std::vector<float> a(2 * 52);
+  std::mt19937_64 rng(5);
+  for (int i = 0; i < 5; ++i) {  // move the hands off their reset pose first
+    random_actions(a, rng);
+    env->step(a);
+  }
+  const auto& task = handle_task(*env);
+  for (int s = 0; s < 2; ++s) {
+    tasks::TaskSlot t = env->slot(s);
+    for (int h = 0; h < 2; ++h) {
+      for (int k = 0; k < 5; ++k) {
+        double got[3];
+        tasks::tip_point(task.hand(h), t.state, k, got);
+        const int b = body_id(*env, prefix(h) + kTipBodies[k]);
+        const auto want = body_point(env->batch().data(s), b, {0, 0, 0.02});
+        for (int i = 0; i < 3; ++i) CHECK(got[i] == Approx(want[i]).margin(1e-9));
+      }
+      double got[3];
+      tasks::palm_point(task.hand(h), t.state, got);
+      const auto want = palm_of(*env, s, h);
+      for (int i = 0; i < 3; ++i) CHECK(got[i] == Approx(want[i]).margin(1e-9));
+      // the palm point is 0.0825 m from the palm origin
+      const double* o = env->batch().data(s)->xpos + 3 * body_id(*env, prefix(h) + "palm");
+      CHECK(dist(want, {o[0], o[1], o[2]}) == Approx(std::hypot(0.02, 0.08)).margin(1e-9));
+      const std::array<double, 3> p = {0.1, -0.3, 0.7};
+      CHECK(tasks::tip_distance_sum(task.hand(h), t.state, p.data()) ==
+            Approx(tip_sum(*env, s, h, p)).margin(1e-9));
+    }
+  }
+}
+
+// ---- layouts ------------------------------------------------------------------------------
+
+TEST_CASE("handle tasks: layouts are the paper's tables", "[tasks][handle][layout]") {
+  const std::vector<PaperRow> tail = {
+      {"object.pose", 398, 404},   {"object.linvel", 405, 407},   {"object.angvel", 408, 410},
+      {"goal.pose", 411, 417},     {"goal.rot_diff", 418, 421},   {"right_handle.pos", 422, 424},
+      {"left_handle.pos", 425, 427}};
+  const std::vector<PaperRow> act = {
+      {"right.joints", 0, 19},          {"right.base_translation", 20, 22},
+      {"right.base_rotation", 23, 25},  {"left.joints", 26, 45},
+      {"left.base_translation", 46, 48}, {"left.base_rotation", 49, 51}};
+  for (const char* id : kIds) {
+    INFO(id);
+    const auto& sp = tasks::find_task(id).spec();
+    CHECK(sp.id == id);
+    CHECK(sp.obs.dim() == 428);
+    CHECK(sp.act.dim() == 52);
+    CHECK(sp.free_base);
+    CHECK(sp.episode_length == (std::string(id) == "lift_underarm" ? 500 : 250));
+    CHECK(sp.age.min_months == (std::string(id) == "lift_underarm" ? 12 : 13));
+    CHECK(sp.difficulty == tasks::Difficulty::kEasy);
+    // hand blocks 0-198 and 199-397, then the tail in the paper's order, no gaps
+    CHECK(sp.obs.at("right.dof_pos").start == 0);
+    CHECK(sp.obs.at("left.dof_pos").start == 199);
+    CHECK(sp.obs.at("left.actions").end() == 398);
+    for (const auto& r : tail) {
+      INFO(r.name);
+      const auto& s = sp.obs.at(r.name);
+      CHECK(s.start == r.first);
+      CHECK(s.end() - 1 == r.last);
+      CHECK(s.goal == (std::string(r.name).rfind("goal", 0) == 0));
+    }
+    int goal_slices = 0;
+    for (auto& s : sp.obs.slices()) goal_slices += s.goal;
+    CHECK(goal_slices == 2);
+    REQUIRE(sp.act.slices().size() == act.size());
+    for (size_t i = 0; i < act.size(); ++i) {
+      CHECK(sp.act.slices()[i].name == act[i].name);
+      CHECK(sp.act.slices()[i].start == act[i].first);
+      CHECK(sp.act.slices()[i].end() - 1 == act[i].last);
+    }
+    std::vector<std::string> terms;
+    for (auto& t : sp.reward_terms) terms.push_back(t.name);
+    CHECK(terms == std::vector<std::string>{"constant", "right_hand", "left_hand", "goal"});
+    REQUIRE(sp.agents.size() == 2);
+    CHECK(sp.agents[0].obs.back() == "left_handle.pos");
+  }
+}
+
+// ---- rewards on crafted states ------------------------------------------------------------
+
+TEST_CASE("lift_underarm: reward terms on a crafted state", "[tasks][handle][reward]") {
+  auto env = make_env("lift_underarm", 1, 1, 1);
+  env->reset();
+  // pot lifted 0.1 m, shifted and turned 0.3 rad about z; palms where they are
+  const Q q = qaxis(0, 0, 1, 0.3);
+  place_object(*env, 0, "pot", {0.02, -0.58, 0.55}, q);
+  sync(*env, 0);
+  std::vector<double> terms;
+  const bool end = evaluate(*env, 0, terms);
+  const auto& sp = env->spec();
+  // handle points from the pot pose: (0, +-0.15, 0.06) turned by 0.3 about z
+  const double c = std::cos(0.3), s = std::sin(0.3);
+  const std::array<double, 3> hr = {0.02 - s * 0.15, -0.58 + c * 0.15, 0.61};
+  const std::array<double, 3> hl = {0.02 + s * 0.15, -0.58 - c * 0.15, 0.61};
+  const double dr = dist(palm_of(*env, 0, 0), hr), dl = dist(palm_of(*env, 0, 1), hl);
+  const double dt = dist({0.02, -0.58, 0.55}, {0, -0.6, 0.85});
+  CHECK(terms[sp.term_index("constant")] == Approx(0.2));
+  CHECK(terms[sp.term_index("right_hand")] == Approx(-dr).margin(1e-9));
+  CHECK(terms[sp.term_index("left_hand")] == Approx(-dl).margin(1e-9));
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * (0.985 - dt)).margin(1e-9));
+  CHECK(end == (dr >= 0.2 || dl >= 0.2));
+  CHECK_FALSE(env->slot(0).task->success);
+  // the handle slices of the observation
+  const auto o = observe(*env, 0);
+  for (int k = 0; k < 3; ++k) {
+    CHECK(o[422 + k] == Approx(hr[k]).margin(1e-6));
+    CHECK(o[425 + k] == Approx(hl[k]).margin(1e-6));
+  }
+  // goal block: goal point, identity orientation, then the pot's orientation (x, y, z, w)
+  CHECK(o[411] == Approx(0));
+  CHECK(o[412] == Approx(-0.6));
+  CHECK(o[413] == Approx(0.85));
+  CHECK(o[417] == Approx(1));
+  CHECK(o[420] == Approx(q[3]).margin(1e-6));
+  CHECK(o[421] == Approx(q[0]).margin(1e-6));
+
+  // the pot dropped below 0.3 m terminates
+  place_object(*env, 0, "pot", {0, -0.6, 0.29}, {1, 0, 0, 0});
+  sync(*env, 0);
+  CHECK(evaluate(*env, 0, terms));
+}
+
+TEST_CASE("lift_underarm: the goal gate and fingertip distances when configured",
+          "[tasks][handle][reward]") {
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "lift_underarm",
+                                {{"goal_gate", "0.08"}, {"hand_point", "fingertips"},
+                                 {"max_hand_distance", "0"}});
+  auto env = make_env("lift_underarm", 1, 1, 1, file);
+  env->reset();
+  std::vector<double> terms;
+  evaluate(*env, 0, terms);
+  const auto& sp = env->spec();
+  const std::array<double, 3> hr = {0, -0.45, 0.51}, hl = {0, -0.75, 0.51};
+  CHECK(terms[sp.term_index("right_hand")] == Approx(-tip_sum(*env, 0, 0, hr)).margin(1e-9));
+  CHECK(terms[sp.term_index("left_hand")] == Approx(-tip_sum(*env, 0, 1, hl)).margin(1e-9));
+  CHECK(tip_sum(*env, 0, 0, hr) > 0.08);
+  CHECK(terms[sp.term_index("goal")] == 0.0);  // gated: the hands are not at the handles
+}
+
+TEST_CASE("lift_underarm: the goal gate opens with both palms at their handles",
+          "[tasks][handle][reward][oracle]") {
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "lift_underarm", {{"goal_gate", "0.08"}});
+  auto env = make_env("lift_underarm", 1, 1, 1, file);
+  env->reset();
+  const auto& sp = env->spec();
+  std::vector<double> terms;
+  evaluate(*env, 0, terms);
+  CHECK(terms[sp.term_index("goal")] == 0.0);  // palms 0.14 m from the handles at the reset
+  // shift each free base (world-axis slides) by handle - palm point: the palms at the handles
+  const std::array<std::array<double, 3>, 2> handle = {{{0, -0.45, 0.51}, {0, -0.75, 0.51}}};
+  mjData* d = env->batch().data(0);
+  for (int h = 0; h < 2; ++h) {
+    const auto palm = palm_of(*env, 0, h);
+    const auto& hi = env->model().hands()[static_cast<size_t>(h)];
+    REQUIRE(hi.side == (h == 0 ? sim::Side::kRight : sim::Side::kLeft));
+    for (int k = 0; k < 3; ++k) d->qpos[hi.base_qpos_adr + k] += handle[h][k] - palm[k];
+  }
+  sync(*env, 0);
+  evaluate(*env, 0, terms);
+  CHECK(-terms[sp.term_index("right_hand")] == Approx(0).margin(1e-9));
+  CHECK(-terms[sp.term_index("left_hand")] == Approx(0).margin(1e-9));
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * (0.985 - 0.4)).margin(1e-9));
+}
+
+TEST_CASE("doors: reward terms on crafted states", "[tasks][handle][reward]") {
+  for (const auto& f : kDoors) {
+    INFO(f.id);
+    auto env = make_env(f.id, 1, 1, 1);
+    env->reset();
+    const auto& sp = env->spec();
+    const double height = handle_task(*env).params().door.handle_height;
+    const std::array<double, 3> door = {0, 0, 0.7};
+    for (auto [qr, ql] : {std::pair{0.3, 0.7}, std::pair{1.2, 0.1}, std::pair{0.0, 1.5}}) {
+      set_hinges(*env, 0, qr, ql);
+      std::vector<double> terms;
+      const bool end = evaluate(*env, 0, terms);
+      const auto hr = door_handle(door, height, f.inward, 0, qr);
+      const auto hl = door_handle(door, height, f.inward, 1, ql);
+      const double dr = tip_sum(*env, 0, 0, hr), dl = tip_sum(*env, 0, 1, hl);
+      const double dt = dist(hr, hl);
+      CHECK(terms[sp.term_index("constant")] == Approx(0.2));
+      CHECK(terms[sp.term_index("right_hand")] == Approx(-dr).margin(1e-9));
+      CHECK(terms[sp.term_index("left_hand")] == Approx(-dl).margin(1e-9));
+      // the paper: open 2 d_target, close 2 (1 - d_target)
+      const double goal = f.open_task ? 2 * dt : 2 * (1 - dt);
+      CHECK(terms[sp.term_index("goal")] == Approx(goal).margin(1e-9));
+      CHECK(end == (dr >= f.max_hand || dl >= f.max_hand));
+      const auto o = observe(*env, 0);
+      for (int k = 0; k < 3; ++k) {
+        CHECK(o[422 + k] == Approx(hr[k]).margin(1e-6));
+        CHECK(o[425 + k] == Approx(hl[k]).margin(1e-6));
+      }
+      // the door block: its fixed pose, at rest; the goal block: the same pose
+      CHECK(o[398] == Approx(0));
+      CHECK(o[400] == Approx(0.7));
+      CHECK(o[404] == Approx(1));
+      for (int k = 405; k < 411; ++k) CHECK(o[k] == Approx(0).margin(1e-9));
+      CHECK(o[413] == Approx(0.7));
+      CHECK(o[421] == Approx(1));
+    }
+  }
+}
+
+// ---- oracles: the object in its goal state ------------------------------------------------
+
+TEST_CASE("lift_underarm oracle: the pot at the goal fires success", "[tasks][handle][oracle]") {
+  auto env = make_env("lift_underarm", 1, 1, 1);
+  env->reset();
+  const auto& sp = env->spec();
+  std::vector<double> terms;
+  // at the start: no success, goal term 3 (0.985 - 0.4)
+  CHECK_FALSE(evaluate(*env, 0, terms));
+  CHECK_FALSE(env->slot(0).task->success);
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * (0.985 - 0.4)).margin(1e-9));
+  // pot lifted 0.4 m to the goal, both hands lifted with it (their bases' z slides)
+  place_object(*env, 0, "pot", {0, -0.6, 0.85}, {1, 0, 0, 0});
+  mjData* d = env->batch().data(0);
+  for (const auto& h : env->model().hands()) d->qpos[h.base_qpos_adr + 2] += 0.4;
+  sync(*env, 0);
+  CHECK_FALSE(evaluate(*env, 0, terms));  // the palms are still at their handles
+  CHECK(env->slot(0).task->success);
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * 0.985).margin(1e-9));  // its best value
+  CHECK(-terms[sp.term_index("right_hand")] < 0.2);
+  CHECK(-terms[sp.term_index("left_hand")] < 0.2);
+  // 6 cm off the goal is not a success
+  env->reset();
+  place_object(*env, 0, "pot", {0, -0.6, 0.79}, {1, 0, 0, 0});
+  sync(*env, 0);
+  evaluate(*env, 0, terms);
+  CHECK_FALSE(env->slot(0).task->success);
+}
+
+TEST_CASE("door oracles: the leaves driven to their goal angle fire success",
+          "[tasks][handle][oracle]") {
+  for (const auto& f : kDoors) {
+    INFO(f.id);
+    auto env = make_env(f.id, 1, 1, 1);
+    env->reset();
+    const auto& sp = env->spec();
+    const double goal_q = f.open_task ? M_PI / 2 : 0, away_q = M_PI / 2 - goal_q;
+    std::vector<double> terms;
+    // the start state: no success
+    evaluate(*env, 0, terms);
+    CHECK_FALSE(env->slot(0).task->success);
+    // the opposite angle: no success
+    set_hinges(*env, 0, away_q, away_q);
+    evaluate(*env, 0, terms);
+    CHECK_FALSE(env->slot(0).task->success);
+    // one leaf alone: not enough to open (the gap stays under 0.5 m); enough to close, as in
+    // the original (the closed leaf's handle and the open one's are 0.41-0.49 m apart in y)
+    set_hinges(*env, 0, goal_q, away_q);
+    evaluate(*env, 0, terms);
+    CHECK(env->slot(0).task->success == !f.open_task);
+    env->slot(0).task->success = false;
+    // the goal term over the joint range peaks at the goal angle (closing: within 0.01 of its
+    // peak, which an outward leaf reaches at about 0.1 rad, where the handles, standing 4 cm in
+    // front of the hinges, come closest)
+    double best = -1e9, at_goal = 0;
+    for (int i = 0; i <= 20; ++i) {
+      const double q = M_PI / 2 * i / 20;
+      set_hinges(*env, 0, q, q);
+      evaluate(*env, 0, terms);
+      best = std::max(best, terms[sp.term_index("goal")]);
+    }
+    set_hinges(*env, 0, goal_q, goal_q);
+    evaluate(*env, 0, terms);
+    at_goal = terms[sp.term_index("goal")];
+    if (f.open_task) {
+      CHECK(at_goal == Approx(best).margin(1e-12));
+    } else {
+      CHECK(at_goal == Approx(2 * (1 - 0.06)).margin(1e-9));  // handles 6 cm apart
+      CHECK(at_goal >= best - 0.01);
+    }
+    CHECK(env->slot(0).task->success);
+    // the handle gap at the goal angle
+    const auto o = observe(*env, 0);
+    const double gap = std::abs(o[423] - o[426]);
+    if (f.open_task) CHECK(gap > 0.5);
+    else CHECK(gap < 0.5);
+  }
+}
+
+// ---- resets -------------------------------------------------------------------------------
+
+TEST_CASE("handle tasks: reset states do not terminate and are the start states",
+          "[tasks][handle][reset]") {
+  for (const char* id : kIds) {
+    INFO(id);
+    TaskTempDir dir;
+    // short episodes so that every slot resets inside step several times
+    const auto file = edited_yaml(dir, id, {{"episode_length", "4"}});
+    auto env = make_env(id, 6, 11, 1, file);
+    env->reset();
+    const auto& task = handle_task(*env);
+    const bool door = task.params().kind == tasks::HandleParams::Kind::kDoor;
+    double start_q = 0;
+    for (const auto& f : kDoors)
+      if (f.id == std::string(id)) start_q = f.start;
+    auto check_start = [&](int s) {
+      mjData* d = env->batch().data(s);
+      if (door) {
+        for (int h = 0; h < 2; ++h) {
+          CHECK(d->qpos[task.hinge_qpos(h)] == Approx(start_q).margin(1e-12));
+          CHECK(d->qvel[task.hinge_dof(h)] == 0.0);
+        }
+      } else {
+        const auto& o = object_of(*env, "pot");
+        CHECK(d->qpos[o.qpos_adr + 0] == Approx(0).margin(1e-12));
+        CHECK(d->qpos[o.qpos_adr + 1] == Approx(-0.6).margin(1e-12));
+        CHECK(d->qpos[o.qpos_adr + 2] == Approx(0.45).margin(1e-12));
+        CHECK(d->qpos[o.qpos_adr + 3] == Approx(1).margin(1e-12));
+        for (int k = 0; k < 6; ++k) CHECK(d->qvel[o.dof_adr + k] == 0.0);
+      }
+      for (const auto& h : env->model().hands())
+        for (int k = 0; k < 3; ++k) CHECK(d->qpos[h.base_qpos_adr + k] == 0.0);
+      std::vector<double> terms;
+      CHECK_FALSE(evaluate(*env, s, terms));
+      CHECK_FALSE(env->slot(s).task->success);
+    };
+    for (int s = 0; s < 6; ++s) check_start(s);
+    std::mt19937_64 rng(9);
+    std::vector<float> a(static_cast<size_t>(6) * 52);
+    int resets = 0;
+    for (int step = 0; step < 13; ++step) {
+      random_actions(a, rng);
+      env->step(a);
+      for (int s = 0; s < 6; ++s)
+        if (env->terminated[s] || env->truncated[s]) {
+          ++resets;
+          CHECK(env->fault[s] == 0);
+          check_start(s);
+        }
+    }
+    CHECK(resets >= 18);
+  }
+}
+
+// ---- random actions -----------------------------------------------------------------------
+
+TEST_CASE("handle tasks: random actions at 3 and 16 slots keep everything finite",
+          "[tasks][handle][smoke]") {
+  for (const char* id : kIds) {
+    for (int n : {3, 16}) {
+      INFO(id << " with " << n << " slots");
+      auto env = make_env(id, n, 4);
+      env->reset();
+      std::mt19937_64 rng(21);
+      std::vector<float> a(static_cast<size_t>(n) * 52);
+      int64_t bad = 0, faults = 0;
+      for (int step = 0; step < 40; ++step) {
+        random_actions(a, rng);
+        env->step(a);
+        for (float x : env->obs) bad += !std::isfinite(x);
+        for (float x : env->reward) bad += !std::isfinite(x);
+        for (float x : env->terms) bad += !std::isfinite(x);
+        faults += env->take_stats().faults;
+      }
+      CHECK(bad == 0);
+      CHECK(faults == 0);
+    }
+  }
+}
+
+TEST_CASE("handle tasks: same seed, same trajectory for 1 and 2 threads",
+          "[tasks][handle][determinism]") {
+  for (const char* id : kIds) {
+    INFO(id);
+    std::vector<std::vector<float>> runs;
+    for (int threads : {1, 2}) {
+      auto env = make_env(id, 4, 99, threads);
+      env->reset();
+      std::mt19937_64 rng(3);
+      std::vector<float> a(static_cast<size_t>(4) * 52), trace;
+      for (int step = 0; step < 25; ++step) {
+        random_actions(a, rng);
+        env->step(a);
+        trace.insert(trace.end(), env->obs.begin(), env->obs.end());
+        trace.insert(trace.end(), env->reward.begin(), env->reward.end());
+        trace.insert(trace.end(), env->terms.begin(), env->terms.end());
+      }
+      runs.push_back(std::move(trace));
+    }
+    REQUIRE(runs[0].size() == runs[1].size());
+    CHECK(std::memcmp(runs[0].data(), runs[1].data(), runs[0].size() * sizeof(float)) == 0);
+  }
+}
+
+// ---- bad YAML -----------------------------------------------------------------------------
+
+TEST_CASE("handle tasks: bad YAML is a ConfigError naming file, key, expected, actual",
+          "[tasks][handle][config]") {
+  struct Case {
+    const char* task;
+    std::vector<std::pair<std::string, std::string>> set;  // key, value (empty: remove)
+    std::string append;
+    const char* key;
+    const char* expected;
+    const char* actual;
+  };
+  const std::vector<Case> cases = {
+      {"door_open_outward", {}, "colour: red\n", "colour", "one of the keys {",
+       "unknown key 'colour'"},
+      {"lift_underarm", {{"goal", "[0, -0.6, 0.85]\n  lid: true"}}, "", "pot.lid", "goal",
+       "unknown key 'lid'"},
+      {"door_close_inward", {{"damping", ""}}, "", "door.damping", "a value for the required key",
+       "none"},
+      {"door_open_inward", {{"start_angle", "wide"}}, "", "door.start_angle", "", "wide"},
+      {"door_close_outward", {{"start_angle", "2.0"}}, "", "door.start_angle",
+       "an angle in [0, pi/2] rad", "2.0"},
+      {"door_open_outward", {{"swing", "sideways"}}, "", "door.swing", "'inward' or 'outward'",
+       "sideways"},
+      {"lift_underarm", {{"mass", "-1"}}, "", "pot.mass", "a mass in [0.01, 100] kg", "-1"},
+      {"lift_underarm", {{"hand_point", "elbow"}}, "", "reward.hand_point",
+       "'palm' or 'fingertips'", "elbow"},
+      {"door_open_inward", {{"when", "sometimes"}}, "", "success.when", "'wider' or 'narrower'",
+       "sometimes"},
+      {"lift_underarm", {{"episode_length", "0"}}, "", "episode_length", "an episode length > 0",
+       "0"},
+  };
+  for (const auto& c : cases) {
+    INFO(c.task << ": " << c.key);
+    TaskTempDir dir;
+    std::string text = default_yaml(c.task);
+    for (auto& [k, v] : c.set) text = v.empty() ? remove_key(text, k) : set_value(text, k, v);
+    text += c.append;
+    const std::string file = dir.write("bad.yaml", text);
+    const auto e = thrown<ConfigError>([&] { tasks::make_task(c.task, file); });
+    const std::string what = e.what();
+    INFO("what(): " << what);
+    CHECK(contains(e.file(), file));
+    CHECK(contains(what, file));
+    CHECK(e.key() == c.key);
+    CHECK(contains(what, c.key));
+    CHECK(contains(e.expected(), c.expected));
+    CHECK(contains(e.actual(), c.actual));
+    CHECK(contains(what, e.actual()));
+  }
+}
+
+// ---- soak ---------------------------------------------------------------------------------
+
+namespace {
+// 1,024 slots x 98 steps = 100,352 random-action slot-steps; episodes shortened to 60 steps
+// (the defaults are 250 and 500) so that every slot also resets inside step.
+void soak(const std::string& id) {
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, id, {{"episode_length", "60"}});
+  constexpr int kSlots = 1024, kSteps = 98;
+  auto env = make_env(id, kSlots, 2024, 0, file);
+  env->reset();
+  std::mt19937_64 rng(77);
+  std::vector<float> a(static_cast<size_t>(kSlots) * env->act_dim());
+  int64_t faults = 0, episodes = 0, bad = 0;
+  const auto t0 = std::chrono::steady_clock::now();
+  for (int step = 0; step < kSteps; ++step) {
+    random_actions(a, rng);
+    env->step(a);
+    auto st = env->take_stats();
+    faults += st.faults;
+    episodes += st.episodes;
+    for (float r : env->reward) bad += !std::isfinite(r);
+  }
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  WARN(id << ": " << kSlots * kSteps << " slot-steps in " << secs << " s, " << faults
+          << " faults, " << episodes << " episodes");
+  CHECK(faults == 0);
+  CHECK(env->batch().total_faults() == 0);
+  CHECK(bad == 0);
+  for (float x : env->obs) bad += !std::isfinite(x);
+  CHECK(bad == 0);
+  CHECK(episodes >= kSlots);
+}
+}  // namespace
+
+TEST_CASE("soak: lift_underarm: 100k random slot-steps without a fault",
+          "[tasks][soak][handle_soak]") {
+  soak("lift_underarm");
+}
+TEST_CASE("soak: door_open_outward: 100k random slot-steps without a fault",
+          "[tasks][soak][handle_soak]") {
+  soak("door_open_outward");
+}
+TEST_CASE("soak: door_close_inward: 100k random slot-steps without a fault",
+          "[tasks][soak][handle_soak]") {
+  soak("door_close_inward");
+}
+TEST_CASE("soak: door_open_inward: 100k random slot-steps without a fault",
+          "[tasks][soak][handle_soak]") {
+  soak("door_open_inward");
+}
+TEST_CASE("soak: door_close_outward: 100k random slot-steps without a fault",
+          "[tasks][soak][handle_soak]") {
+  soak("door_close_outward");
+}
