@@ -1,5 +1,6 @@
 // bidex train / eval: PPO on a task with a run folder (config, metrics, learning curve,
 // checkpoints), resuming a stopped run, and evaluating a trained policy.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -13,6 +14,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "rl/config.h"
+#include "rl/metrics.h"
 #include "rl/trainer.h"
 #include "tasks/registry.h"
 
@@ -24,6 +26,36 @@ std::string num(double v, const char* f = "%.4g") {
   char buf[48];
   std::snprintf(buf, sizeof buf, f, v);
   return buf;
+}
+
+// The learning curve as text: about ten rows of slot-steps, mean return and success rate (the
+// updates in which episodes ended), with a bar for the return.
+void print_curve(const std::string& dir) {
+  std::vector<std::string> cols;
+  std::vector<std::vector<double>> rows;
+  rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir + "/metrics.csv", cols, rows);
+  size_t is = 0, ir = 0, ic = 0;
+  for (size_t i = 0; i < cols.size(); ++i) {
+    if (cols[i] == "steps") is = i;
+    if (cols[i] == "return") ir = i;
+    if (cols[i] == "success") ic = i;
+  }
+  std::vector<const std::vector<double>*> ended;
+  for (auto& r : rows)
+    if (std::isfinite(r[ir])) ended.push_back(&r);
+  if (ended.empty()) return;
+  double lo = INFINITY, hi = -INFINITY;
+  for (auto* r : ended) {
+    lo = std::min(lo, (*r)[ir]);
+    hi = std::max(hi, (*r)[ir]);
+  }
+  std::printf("%12s %10s %8s\n", "slot-steps", "return", "success");
+  const size_t n = ended.size(), shown = std::min<size_t>(n, 10);
+  for (size_t k = 0; k < shown; ++k) {
+    const auto& r = *ended[shown == 1 ? n - 1 : k * (n - 1) / (shown - 1)];
+    const int bar = hi > lo ? static_cast<int>(30 * (r[ir] - lo) / (hi - lo) + 0.5) : 0;
+    std::printf("%12.0f %10.4g %8.3f  %s\n", r[is], r[ir], r[ic], std::string(bar, '#').c_str());
+  }
 }
 }  // namespace
 
@@ -85,6 +117,7 @@ void add_train_command(CLI::App& app) {
                 r.run_dir.c_str(), static_cast<long long>(r.updates),
                 static_cast<long long>(r.steps), num(r.last_return).c_str(),
                 num(r.last_success, "%.3f").c_str());
+    print_curve(r.run_dir);
     std::printf("checkpoint %s\nlearning curve %s/learning_curve.svg\n", r.checkpoint.c_str(),
                 r.run_dir.c_str());
     if (r.interrupted) {
