@@ -12,6 +12,11 @@ const std::vector<TaskEntry>& task_registry() {
       {catch_over2underarm_spec, make_catch_over2underarm},
       {catch_abreast_spec, make_catch_abreast},
       {two_catch_underarm_spec, make_two_catch_underarm},
+      {bottle_cap_spec, make_bottle_cap},
+      {push_block_spec, make_push_block},
+      {re_orientation_spec, make_re_orientation},
+      {block_stack_spec, make_block_stack},
+      {grasp_and_place_spec, make_grasp_and_place},
   };
   return all;
 }

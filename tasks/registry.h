@@ -31,6 +31,11 @@ BIDEX_TASK(catch_underarm)
 BIDEX_TASK(catch_over2underarm)
 BIDEX_TASK(catch_abreast)
 BIDEX_TASK(two_catch_underarm)
+BIDEX_TASK(bottle_cap)
+BIDEX_TASK(push_block)
+BIDEX_TASK(re_orientation)
+BIDEX_TASK(block_stack)
+BIDEX_TASK(grasp_and_place)
 #undef BIDEX_TASK
 
 }  // namespace bidex::tasks
