@@ -263,6 +263,39 @@ TEST_CASE("bottle_cap terms: 0.2 - d_right - d_left + 30 d_open", "[tasks][manip
   CHECK_FALSE(env->slot_state(0).success);                              // 0.02 < 0.03
   // the cap point on the bottle's axis, 15 cm from its origin
   CHECK(dist(c, b) == Approx(0.15).epsilon(1e-9));
+
+  // termination: the cap point at or below 0.5 m (the bottle lowered, hands where they are:
+  // the left palm would also be too far, so that limit is switched off here)
+  TaskTempDir dir;
+  auto env2 = make_env("bottle_cap", 1, 3, 0,
+                       edited_yaml(dir, "bottle_cap", {{"max_left_palm", "0"}, {"max_right_palm", "0"}}));
+  const auto& bo = object_of(*env2, "bottle");
+  mjData* d = env2->batch().data(0);
+  sync(*env2, 0);
+  const double cz = local_point(*env2, 0, "bottle", {0, 0, 0.15})[2];
+  d->qpos[bo.qpos_adr + 2] -= cz - 0.5 + 1e-6;  // c just below 0.5
+  sync(*env2, 0);
+  CHECK(evaluate(*env2, 0, t));
+  d->qpos[bo.qpos_adr + 2] += 2e-3;  // just above
+  sync(*env2, 0);
+  CHECK_FALSE(evaluate(*env2, 0, t));
+  // the left palm 0.2 m from the bottle ends it (default YAML): the bottle moved away
+  move_to(*env, 0, "bottle", plus({xpos(*env, 0, "bottle")[0], xpos(*env, 0, "bottle")[1],
+                                   xpos(*env, 0, "bottle")[2]}, {0, 0, 0.2}));
+  sync(*env, 0);
+  const Vec pl = local_point(*env, 0, "lh_palm", {0, -0.02, 0.08});
+  CHECK(dist(pl, xpos(*env, 0, "bottle")) >= 0.2);
+  CHECK(evaluate(*env, 0, t));
+
+  // the original's gate: the opening pays only while the right fingertips' sum is <= 0.3 (at
+  // the mounts it is 0.71)
+  auto env3 = make_env("bottle_cap", 1, 3, 0,
+                       edited_yaml(dir, "bottle_cap", {{"goal_gate", "0.3"}}, "gate.yaml"));
+  env3->batch().data(0)->qpos[joint_qpos(*env3, "bottle_cap_slide")] = 0.02;
+  sync(*env3, 0);
+  evaluate(*env3, 0, t);
+  CHECK(t[term(*env3, "cap_open")] == 0);
+  CHECK(-t[term(*env3, "right_hand")] > 0.3);
 }
 
 TEST_CASE("push_block terms: 2 - d_left - d_right + 5 (0.8 - d_target), each block to its own goal",
@@ -341,6 +374,14 @@ TEST_CASE("grasp_and_place terms: exp(-10 d_right) + exp(-10 d_left) + 2 exp(-10
   const double d = std::sqrt(0.01 + 0.04 + (0.678 - 0.625) * (0.678 - 0.625));  // 0.2308
   CHECK(t[term(*env, "place")] == Approx(2 * std::exp(-10 * d)).epsilon(1e-9));
   CHECK_FALSE(env->slot_state(0).success);  // 0.23 > 0.2
+
+  // a ball instead of the block: a sphere of diameter 0.05 with density 500 (32.7 g)
+  TaskTempDir dir;
+  auto env2 = make_env("grasp_and_place", 1, 3, 0,
+                       edited_yaml(dir, "grasp_and_place", {{"shape", "ball"}}));
+  const int b = body_id(*env2, "object");
+  CHECK(env2->model().mj()->body_mass[b] == Approx(500 * 4.0 / 3.0 * M_PI * 0.025 * 0.025 * 0.025));
+  CHECK(env2->model().mj()->geom_type[env2->model().mj()->body_geomadr[b]] == mjGEOM_SPHERE);
 }
 
 TEST_CASE("re_orientation terms: -10 (d1 + d2) + 1/(theta_i + 0.1) - 0.0002 sum(a^2)",
