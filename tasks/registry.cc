@@ -17,6 +17,11 @@ const std::vector<TaskEntry>& task_registry() {
       {door_close_inward_spec, make_door_close_inward},
       {door_open_inward_spec, make_door_open_inward},
       {door_close_outward_spec, make_door_close_outward},
+      {bottle_cap_spec, make_bottle_cap},
+      {push_block_spec, make_push_block},
+      {re_orientation_spec, make_re_orientation},
+      {block_stack_spec, make_block_stack},
+      {grasp_and_place_spec, make_grasp_and_place},
   };
   return all;
 }

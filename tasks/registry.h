@@ -39,6 +39,11 @@ BIDEX_TASK(door_open_outward)
 BIDEX_TASK(door_close_inward)
 BIDEX_TASK(door_open_inward)
 BIDEX_TASK(door_close_outward)
+BIDEX_TASK(bottle_cap)
+BIDEX_TASK(push_block)
+BIDEX_TASK(re_orientation)
+BIDEX_TASK(block_stack)
+BIDEX_TASK(grasp_and_place)
 BIDEX_TASK(catch_underarm_raise)
 #undef BIDEX_TASK
 

@@ -1,0 +1,200 @@
+// grasp_and_place: Pull a Ball into Bucket / Grasp & Place (the original's
+// ShadowHandGraspAndPlace); defaults in grasp_and_place.yaml, decisions in README.md. The right
+// hand takes the bucket, the left hand the block (or ball), and the two meet.
+#include <cmath>
+
+#include <mujoco/mujoco.h>
+
+#include "core/error.h"
+#include "core/yaml.h"
+#include "tasks/manipulation_family.h"
+#include "tasks/math.h"
+#include "tasks/registry.h"
+
+namespace bidex::tasks {
+
+namespace {
+
+struct PlaceParams {
+  manip::CommonParams common;
+  manip::TableParams table;
+  // bucket: an open box of outer half width, height and wall thickness
+  double bucket_half_width = 0.055, bucket_height = 0.154, bucket_wall = 0.005;
+  double bucket_density = 500, bucket_friction = 1;
+  sim::Vec3 bucket_start{};
+  // the object: a cube (edge) or a ball (diameter)
+  std::string object_shape = "block";
+  double object_size = 0.05, object_density = 500, object_friction = 1;
+  sim::Vec3 object_start{}, object_rpy{};
+  // reward: exp(-k sum_R(bucket)) + exp(-k sum_L(object)) + place_scale exp(-k |bucket - object|)
+  double decay = 10, place_scale = 2;
+  double success_tolerance = 0.2;
+  double max_tip_distance = 1.5;
+};
+
+PlaceParams load(const std::string& file) {
+  const YamlView root = YamlView::load_file(file);
+  root.allow_keys({"episode_length", "hands", "base", "table", "bucket", "object", "reward",
+                   "termination"});
+  PlaceParams p;
+  p.common = manip::load_common(root, file);
+  p.table = manip::load_table(root.child("table"));
+  {
+    auto b = root.child("bucket");
+    b.allow_keys({"half_width", "height", "wall", "density", "friction", "start"});
+    p.bucket_half_width = manip::number(b, "half_width", 0.02, 0.5, "a half width in [0.02, 0.5] m");
+    p.bucket_height = manip::number(b, "height", 0.02, 1, "a height in [0.02, 1] m");
+    p.bucket_wall = manip::number(b, "wall", 0.001, 0.05, "a wall thickness in [0.001, 0.05] m");
+    if (!(2 * p.bucket_wall < p.bucket_half_width))
+      b.child("wall").fail("a wall thinner than half the bucket's half width", b.child("wall").repr());
+    p.bucket_density = manip::number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.bucket_friction = manip::number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.bucket_start = manip::vec3(b.child("start"));
+  }
+  {
+    auto o = root.child("object");
+    o.allow_keys({"shape", "size", "density", "friction", "start", "rpy"});
+    auto s = o.child("shape");
+    p.object_shape = s.as<std::string>();
+    if (p.object_shape != "block" && p.object_shape != "ball") s.fail("block or ball", s.repr());
+    p.object_size = manip::number(o, "size", 0.01, 0.2, "an edge or diameter in [0.01, 0.2] m");
+    p.object_density = manip::number(o, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.object_friction = manip::number(o, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.object_start = manip::vec3(o.child("start"));
+    p.object_rpy = manip::vec3(o.child("rpy"));
+  }
+  {
+    auto r = root.child("reward");
+    r.allow_keys({"decay", "place_scale", "success_tolerance"});
+    p.decay = manip::number(r, "decay", 0, 1000, "a rate in [0, 1000] 1/m");
+    p.place_scale = manip::number(r, "place_scale", 0, 1000, "a scale in [0, 1000]");
+    p.success_tolerance = manip::number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
+  }
+  {
+    auto t = root.child("termination");
+    t.allow_keys({"max_tip_distance"});
+    p.max_tip_distance =
+        manip::number(t, "max_tip_distance", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
+  }
+  return p;
+}
+
+// The bucket's geoms: a floor and four walls, origin at the bucket's centre.
+std::string bucket_body(const PlaceParams& p) {
+  const double w = p.bucket_half_width, h = p.bucket_height / 2, t = p.bucket_wall / 2;
+  auto sz = [](double a, double b, double c) {
+    return std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(c);
+  };
+  const double rho = p.bucket_density, mu = p.bucket_friction;
+  const std::string c = "0.35 0.55 0.75 1";
+  std::string s;
+  s += manip::geom("bucket_floor", "box", sz(w, w, t), {0, 0, -h + t}, rho, mu, c);
+  s += manip::geom("bucket_wall_px", "box", sz(t, w, h), {w - t, 0, 0}, rho, mu, c);
+  s += manip::geom("bucket_wall_nx", "box", sz(t, w, h), {-(w - t), 0, 0}, rho, mu, c);
+  s += manip::geom("bucket_wall_py", "box", sz(w - 2 * t, t, h), {0, w - t, 0}, rho, mu, c);
+  s += manip::geom("bucket_wall_ny", "box", sz(w - 2 * t, t, h), {0, -(w - t), 0}, rho, mu, c);
+  return s;
+}
+
+class GraspAndPlace : public manip::ManipTask {
+ public:
+  GraspAndPlace(const TaskSpec& spec, PlaceParams p) : ManipTask(spec, p.common), p_(std::move(p)) {}
+
+  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
+                          const sim::PhysicsOptions& physics) const override {
+    sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+    sb.add_object(manip::table("table", p_.table));
+    sim::ObjectSpec b;
+    b.name = "bucket";
+    b.shape = sim::ObjectSpec::Shape::kMjcf;
+    b.mjcf_body = bucket_body(p_);
+    b.pose.pos = p_.bucket_start;
+    sb.add_object(b);
+    const sim::Quat q = manip::quat_rpy(p_.object_rpy);
+    auto o = manip::cube("object", p_.object_size, p_.object_density, p_.object_friction,
+                         p_.object_start, q);
+    if (p_.object_shape == "ball") {
+      const double r = p_.object_size / 2;
+      o.shape = sim::ObjectSpec::Shape::kSphere;
+      o.size = {r, r, r};
+      o.mass = p_.object_density * 4.0 / 3.0 * M_PI * r * r * r;
+    }
+    sb.add_object(o);
+    return sb;
+  }
+
+  void bind(const sim::SimModel& model) override {
+    bind_hands(model);
+    bucket_ = manip::object_index(model, spec().id, "bucket").body;
+    object_ = manip::object_index(model, spec().id, "object").body;
+    bucket_tree_ = model.mj()->body_rootid[bucket_];
+    t_right_ = spec().term_index("right_hand");
+    t_left_ = spec().term_index("left_hand");
+    t_place_ = spec().term_index("place");
+  }
+
+  void reset(TaskSlot&) const override {}  // bucket and object at their start poses
+
+  bool evaluate(TaskSlot& t, double* terms) const override {
+    const auto& v = t.state;
+    const double* k = v.xpos + 3 * bucket_;
+    const double* c = v.xpos + 3 * object_;
+    const double d_right = tip_distance_sum(hands_[0], v, k);
+    const double d_left = tip_distance_sum(hands_[1], v, c);
+    const double d = math::dist3(k, c);
+    terms[t_right_] = std::exp(-p_.decay * d_right);
+    terms[t_left_] = std::exp(-p_.decay * d_left);
+    terms[t_place_] = p_.place_scale * std::exp(-p_.decay * d);
+    if (d < p_.success_tolerance) t.task->success = true;
+    return p_.max_tip_distance > 0 &&
+           (d_left >= p_.max_tip_distance || d_right >= p_.max_tip_distance);
+  }
+
+  void observe(const TaskSlot& t, float* obs) const override {
+    float* o = observe_hands(t, obs);
+    observe_object(t.state, bucket_, bucket_tree_, o);
+    manip::put3(o + 13, t.state.xpos + 3 * bucket_);
+    math::put_quat_xyzw(o + 16, t.state.xquat + 4 * bucket_);
+    manip::put3(o + 20, t.state.xpos + 3 * object_);
+    math::put_quat_xyzw(o + 23, t.state.xquat + 4 * object_);
+  }
+
+ private:
+  PlaceParams p_;
+  int bucket_ = -1, object_ = -1, bucket_tree_ = -1;
+  int t_right_ = -1, t_left_ = -1, t_place_ = -1;
+};
+
+TaskSpec make_spec() {
+  TaskSpec s = manip::spec_with_hands(
+      "grasp_and_place", "Pull a Ball into Bucket (Grasp & Place)", "ShadowHandGraspAndPlace",
+      HumanAge{22, 28, "22-28", false}, Difficulty::kMedium,
+      "Places 10 pellets in a bottle in 60 seconds or less, one pellet at a time.", 500);
+  s.obs.add("bucket.pose", 7, "bucket position (m) and orientation (x, y, z, w), world frame");
+  s.obs.add("bucket.linvel", 3, "bucket linear velocity (m/s), world frame");
+  s.obs.add("bucket.angvel", 3, "bucket angular velocity (rad/s) x 0.2, world frame");
+  s.obs.add("bucket_link.pos", 3, "the bucket link's position (m): the bucket body's centre");
+  s.obs.add("bucket_link.quat", 4, "the bucket link's orientation (x, y, z, w)");
+  s.obs.add("object.pos", 3, "the object's position (m)");
+  s.obs.add("object.quat", 4, "the object's orientation (x, y, z, w)");
+  s.agents = agents_per_hand(s.obs, s.act);
+  s.reward_terms = {
+      {"right_hand", "exp(-decay d_right), d_right the right fingertips' distance sum to the bucket (m)"},
+      {"left_hand", "exp(-decay d_left), d_left the left fingertips' distance sum to the object (m)"},
+      {"place", "place_scale exp(-decay |bucket - object|)"},
+  };
+  return s;
+}
+
+}  // namespace
+
+const TaskSpec& grasp_and_place_spec() {
+  static const TaskSpec spec = make_spec();
+  return spec;
+}
+
+std::unique_ptr<Task> make_grasp_and_place(const std::string& config_file) {
+  return std::make_unique<GraspAndPlace>(grasp_and_place_spec(), load(config_file));
+}
+
+}  // namespace bidex::tasks

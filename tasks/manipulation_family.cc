@@ -1,0 +1,220 @@
+#include "tasks/manipulation_family.h"
+
+#include <cmath>
+#include <cstdio>
+
+#include <mujoco/mujoco.h>
+
+#include "core/error.h"
+#include "core/yaml.h"
+#include "tasks/math.h"
+
+namespace bidex::tasks::manip {
+
+// ---- config -------------------------------------------------------------------------------
+
+sim::Vec3 vec3(const YamlView& v) { return v.as<std::array<double, 3>>(); }
+
+double number(const YamlView& parent, const char* key, double lo, double hi, const char* what) {
+  auto v = parent.child(key);
+  double x = v.as<double>();
+  if (!(x >= lo && x <= hi)) v.fail(what, v.repr());
+  return x;
+}
+
+namespace {
+HandPose hand_pose(const YamlView& v) {
+  v.allow_keys({"pos", "rpy"});
+  HandPose h;
+  h.pos = vec3(v.child("pos"));
+  h.rpy = vec3(v.child("rpy"));
+  return h;
+}
+
+std::string num(double v) {
+  char buf[40];
+  std::snprintf(buf, sizeof buf, "%.10g", v);
+  return buf;
+}
+}  // namespace
+
+CommonParams load_common(const YamlView& root, const std::string& file) {
+  CommonParams c;
+  c.file = file;
+  {
+    auto v = root.child("episode_length");
+    c.episode_length = v.as<int>();
+    if (c.episode_length <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
+  }
+  {
+    auto h = root.child("hands");
+    h.allow_keys({"right", "left"});
+    c.right = hand_pose(h.child("right"));
+    c.left = hand_pose(h.child("left"));
+  }
+  {
+    auto b = root.child("base");
+    b.allow_keys({"force_scale", "torque_scale"});
+    c.force_scale = number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+    c.torque_scale = number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+  }
+  return c;
+}
+
+TableParams load_table(const YamlView& v) {
+  v.allow_keys({"pos", "half_size", "friction"});
+  TableParams t;
+  t.pos = vec3(v.child("pos"));
+  {
+    auto h = v.child("half_size");
+    t.half_size = vec3(h);
+    for (double x : t.half_size)
+      if (!(x > 0 && x <= 10)) h.fail("3 half sizes in (0, 10] m", h.repr());
+  }
+  t.friction = number(v, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+  return t;
+}
+
+// ---- spec ---------------------------------------------------------------------------------
+
+TaskSpec spec_with_hands(std::string id, std::string paper_name, std::string original_name,
+                         HumanAge age, Difficulty difficulty, std::string skill,
+                         int episode_length) {
+  TaskSpec s;
+  s.id = std::move(id);
+  s.paper_name = std::move(paper_name);
+  s.original_name = std::move(original_name);
+  s.age = std::move(age);
+  s.difficulty = difficulty;
+  s.skill = std::move(skill);
+  s.episode_length = episode_length;
+  s.free_base = true;
+  add_hand_obs(s.obs, "right", true);
+  add_hand_obs(s.obs, "left", true);
+  add_hand_act(s.act, "right", true);
+  add_hand_act(s.act, "left", true);
+  return s;
+}
+
+// ---- objects ------------------------------------------------------------------------------
+
+sim::Quat quat_rpy(const sim::Vec3& rpy) {
+  return sim::Pose::rpy({0, 0, 0}, rpy[0], rpy[1], rpy[2]).quat;
+}
+
+sim::ObjectSpec cube(const std::string& name, double edge, double density, double friction,
+                     const sim::Vec3& pos, const sim::Quat& quat) {
+  sim::ObjectSpec o;
+  o.name = name;
+  o.shape = sim::ObjectSpec::Shape::kBox;
+  o.size = {edge / 2, edge / 2, edge / 2};
+  o.mass = density * edge * edge * edge;
+  o.friction = friction;
+  o.condim = 4;
+  o.pose.pos = pos;
+  o.pose.quat = quat;
+  o.rgba = {0.85, 0.35, 0.25, 1};
+  return o;
+}
+
+sim::ObjectSpec table(const std::string& name, const TableParams& t) {
+  sim::ObjectSpec o;
+  o.name = name;
+  o.shape = sim::ObjectSpec::Shape::kBox;
+  o.size = t.half_size;
+  o.mass = 10;  // a welded body: its mass plays no part
+  o.free = false;
+  o.friction = t.friction;
+  o.condim = 3;
+  o.pose.pos = t.pos;
+  o.rgba = {0.55, 0.42, 0.3, 1};
+  return o;
+}
+
+sim::ObjectSpec marker_box(const std::string& name, double half, const sim::Vec3& pos,
+                           const sim::Quat& quat, std::array<double, 4> rgba) {
+  sim::ObjectSpec o;
+  o.name = name;
+  o.shape = sim::ObjectSpec::Shape::kBox;
+  o.size = {half, half, half};
+  o.marker = true;
+  o.free = false;
+  o.pose.pos = pos;
+  o.pose.quat = quat;
+  o.rgba = rgba;
+  return o;
+}
+
+std::string geom(const std::string& name, const std::string& type, const std::string& size,
+                 const sim::Vec3& pos, double density, double friction, const std::string& rgba) {
+  std::string s = "<geom name=\"";
+  s.append(name).append("\" type=\"").append(type).append("\" size=\"").append(size);
+  s.append("\" pos=\"").append(num(pos[0])).append(" ").append(num(pos[1])).append(" ");
+  s.append(num(pos[2])).append("\" density=\"").append(num(density));
+  s.append("\" friction=\"").append(num(friction)).append(" 0.005 0.0001\" condim=\"4\"");
+  s.append(" contype=\"1\" conaffinity=\"7\" rgba=\"").append(rgba).append("\"/>\n");
+  return s;
+}
+
+// ---- task ---------------------------------------------------------------------------------
+
+ManipTask::ManipTask(const TaskSpec& spec, CommonParams common)
+    : Task(spec, common.file), c_(std::move(common)) {}
+
+sim::SceneBuilder ManipTask::scene_with_hands(const sim::HandSpec& right_hand,
+                                              const sim::PhysicsOptions& physics) const {
+  // two objects (or a table and an object) in contact with both hands at once: the room that
+  // two_catch_underarm needed for two eggs, doubled for boxes (up to 4 contacts per box face)
+  sim::PhysicsOptions ph = physics;
+  ph.njmax += 128;
+  ph.nconmax += 32;
+  ph.nstack += 24000;
+  sim::SceneBuilder sb(ph);
+  auto pose = [](const HandPose& h) {
+    return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
+  };
+  sb.add_hand(right_hand, {sim::Side::kRight, pose(c_.right), sim::Base::kFree});
+  sb.add_hand(right_hand, {sim::Side::kLeft, pose(c_.left), sim::Base::kFree});
+  return sb;
+}
+
+void ManipTask::bind_hands(const sim::SimModel& model) {
+  hands_[0] = bind_hand(model, sim::Side::kRight);
+  hands_[1] = bind_hand(model, sim::Side::kLeft);
+  for (auto& h : hands_) {
+    h.force_max = c_.force_scale * 1e5 / 60.0;
+    h.torque_max = c_.torque_scale * 1e3 / 60.0;
+  }
+}
+
+void ManipTask::apply_actions(const float* a, TaskSlot& t) const {
+  const int per_hand = spec().act.dim() / 2;
+  for (int h = 0; h < 2; ++h)
+    apply_hand_actions(hands_[h], a + h * per_hand, t.state.ctrl, t.state.base_wrench);
+}
+
+float* ManipTask::observe_hands(const TaskSlot& t, float* obs) const {
+  const int per_hand = spec().act.dim() / 2;
+  observe_hand(hands_[0], t.state, t.task->action.data(), obs);
+  observe_hand(hands_[1], t.state, t.task->action.data() + per_hand, obs + kHandObsFree);
+  return obs + 2 * kHandObsFree;
+}
+
+double ManipTask::action_sq(const TaskSlot& t) const {
+  double a2 = 0;
+  for (int k = 0; k < spec().act.dim(); ++k) a2 += double(t.task->action[k]) * t.task->action[k];
+  return a2;
+}
+
+void body_point(const sim::SlotView& v, int body, const double* local, double* out) {
+  math::frame_point(out, v.xpos + 3 * body, v.xquat + 4 * body, local);
+}
+
+const sim::ObjectIndex& object_index(const sim::SimModel& model, const std::string& task,
+                                     const std::string& name) {
+  const sim::ObjectIndex* o = model.object(name);
+  if (!o) throw ModelError(task + ": the scene lacks its object '" + name + "'");
+  return *o;
+}
+
+}  // namespace bidex::tasks::manip
