@@ -43,16 +43,21 @@ std::string fmt(const char* f, double a, double b) {
 std::vector<double> ticks(double lo, double hi, int target) {
   if (!(hi > lo)) return {lo};
   const double raw = (hi - lo) / std::max(1, target - 1);
-  const double mag = std::pow(10.0, std::floor(std::log10(raw)));
-  double step = mag;
-  for (double m : {1.0, 2.0, 5.0, 10.0})
-    if (m * mag >= raw) {
-      step = m * mag;
+  const int e = static_cast<int>(std::floor(std::log10(raw)));
+  const double mag = std::pow(10.0, std::abs(e));
+  // step = m 10^e; a tick is k m 10^e, computed as an integer scaled once so 0.3 prints as 0.3
+  int m = 10;
+  for (int c : {1, 2, 5, 10})
+    if ((e < 0 ? c / mag : c * mag) >= raw) {
+      m = c;
       break;
     }
+  auto value = [&](long long km) { return e < 0 ? km / mag : km * mag; };
+  const double step = value(m);
   std::vector<double> out;
-  for (double t = std::ceil(lo / step) * step; t <= hi + 1e-9 * step; t += step)
-    out.push_back(std::abs(t) < 1e-12 * step ? 0.0 : t);
+  for (long long k = static_cast<long long>(std::ceil(lo / step)); value(k * m) <= hi + 1e-9 * step;
+       ++k)
+    out.push_back(value(k * m));
   return out;
 }
 
