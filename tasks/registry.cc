@@ -12,6 +12,11 @@ const std::vector<TaskEntry>& task_registry() {
       {catch_over2underarm_spec, make_catch_over2underarm},
       {catch_abreast_spec, make_catch_abreast},
       {two_catch_underarm_spec, make_two_catch_underarm},
+      {swing_cup_spec, make_swing_cup},
+      {scissors_spec, make_scissors},
+      {pen_spec, make_pen},
+      {switch_spec, make_switch},
+      {pour_water_spec, make_pour_water},
   };
   return all;
 }

@@ -31,6 +31,11 @@ BIDEX_TASK(catch_underarm)
 BIDEX_TASK(catch_over2underarm)
 BIDEX_TASK(catch_abreast)
 BIDEX_TASK(two_catch_underarm)
+BIDEX_TASK(swing_cup)
+BIDEX_TASK(scissors)
+BIDEX_TASK(pen)
+BIDEX_TASK(switch)
+BIDEX_TASK(pour_water)
 #undef BIDEX_TASK
 
 }  // namespace bidex::tasks
