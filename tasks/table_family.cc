@@ -393,6 +393,12 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
   ph.njmax += 64;
   ph.nconmax += 16;
   ph.nstack += 12000;
+  if (kind_ == TableKind::kSwitch) {
+    // fingers pressed between a rocker and its housing: many contacts at once
+    ph.njmax += 64;
+    ph.nconmax += 16;
+    ph.nstack += 6000;
+  }
   if (kind_ == TableKind::kPourWater) {
     // two free vessels whose flat bottoms rest on the table (4 contacts each, more when they
     // touch each other or the hands)
@@ -482,24 +488,40 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
     }
     case TableKind::kSwitch: {
       for (int i = 1; i <= 2; ++i) {
+        const TableParams::Pose& at = i == 1 ? p_.object : p_.second;
+        const std::string n = "switch" + std::to_string(i);
+        // a 10 x 8 x 7 cm housing with a 2 x 6 x 2.5 cm pedestal on top
         std::ostringstream y;
         GeomWriter ws{y, p_.density, p_.object_friction, "0.3 0.3 0.32 1"};
-        const std::string n = "switch" + std::to_string(i);
-        // a 10 x 8 x 10 cm housing on a 3 cm pedestal; a 9 x 6 cm rocker on a hinge about y
-        ws.box(n + "_housing", {0.05, 0.04, 0.05}, {0, 0, 0.05});
-        ws.box(n + "_pedestal", {0.01, 0.03, 0.01}, {0, 0, 0.105});
-        double q[4];
-        quat_axis(q, 1, -g::kSwitchTilt);
-        y << "      <body name=\"" << n << "_rocker\" pos=\"0 0 " << num(g::kSwitchHingeZ)
-          << "\" quat=\"" << num(q[0]) << " " << num(q[1]) << " " << num(q[2]) << " " << num(q[3])
-          << "\">\n        <joint name=\"" << n
+        ws.box(n + "_housing", {0.05, 0.04, 0.035}, {0, 0, 0.035});
+        ws.box(n + "_pedestal", {0.01, 0.03, 0.0125}, {0, 0, 0.0825});
+        object(n, at, false, y.str());
+        // the rocker (9 x 6 x 1.6 cm) is its own body on a hinge about y, 0.12 m above the
+        // switch's origin (a child of the world, not of the housing, so that it collides with
+        // housing and pedestal: they stop it if a hand forces it far past its limits; in its
+        // travel it touches neither)
+        double rq[4], tilt[4], hinge[3];
+        quat_of_rpy(rq, at.rpy);
+        quat_axis(tilt, 1, -g::kSwitchTilt);
+        const double up[3] = {0, 0, g::kSwitchHingeZ};
+        math::frame_point(hinge, at.pos.data(), rq, up);
+        std::ostringstream z;
+        z << "      <joint name=\"" << n
           << "_hinge\" type=\"hinge\" axis=\"0 1 0\" limited=\"true\" range=\"0 "
           << num(g::kSwitchOn) << "\" damping=\"" << damping << "\" armature=\""
           << num(g::kSwitchArmature) << "\"/>\n";
-        GeomWriter wr{y, p_.density, p_.object_friction, "0.9 0.3 0.25 1"};
+        GeomWriter wr{z, p_.density, p_.object_friction, "0.9 0.3 0.25 1"};
         wr.box(n + "_rocker", {0.045, 0.03, g::kSwitchPressZ}, {0, 0, 0});
-        y << "      </body>\n";
-        object(n, i == 1 ? p_.object : p_.second, false, y.str());
+        sim::ObjectSpec o;
+        o.name = n + "_rocker";
+        o.shape = sim::ObjectSpec::Shape::kMjcf;
+        o.pose.pos = {hinge[0], hinge[1], hinge[2]};
+        double q[4];
+        math::mul_quat(q, rq, tilt);
+        o.pose.quat = {q[0], q[1], q[2], q[3]};
+        o.free = false;
+        o.mjcf_body = z.str();
+        sb.add_object(o);
       }
       break;
     }

@@ -89,7 +89,7 @@ constexpr double kPenCapX = 0.03, kPenCapPoint = 0.06, kPenBodyPoint = -0.09, kP
 // switch: rocker hinge above the root, tilted by kSwitchTilt at 0; press point on the rocker
 constexpr double kSwitchHingeZ = 0.12, kSwitchTilt = 0.27925, kSwitchOn = 0.5585;
 constexpr double kSwitchPressX = 0.04, kSwitchPressZ = 0.008;
-constexpr double kSwitchArmature = 0.001;  // kg m^2 on each rocker hinge (README)
+constexpr double kSwitchArmature = 0.005;  // kg m^2 on each rocker hinge (README)
 // pour_water: kettle handle and spout in the kettle frame; bucket opening in the bucket frame
 constexpr double kKettleHandleX = 0.15, kKettleHandleZ = 0.08;
 constexpr double kSpoutX = -0.2, kSpoutZ = 0.13;
@@ -111,7 +111,8 @@ class TableTask : public Task {
   bool evaluate(TaskSlot& slot, double* terms) const override;
   void observe(const TaskSlot& slot, float* obs) const override;
 
-  // The two reward points (world): the right hand's and the left hand's (the tail's last 6).
+  // The two reward points (world): the right hand's and the left hand's (the tail's last 6, in
+  // this order except for the pen, whose tail lists the body point first as the paper).
   void points(const TaskSlot& slot, double* right, double* left) const;
   // The goal pose (position, (w, x, y, z)) and the orientation compared with it.
   void goal(const TaskSlot& slot, double* pose, double* compared_quat) const;
