@@ -19,8 +19,13 @@ const std::vector<TaskEntry>& task_registry() {
       {door_close_outward_spec, make_door_close_outward},
       {bottle_cap_spec, make_bottle_cap},
       {push_block_spec, make_push_block},
+      {swing_cup_spec, make_swing_cup},
+      {scissors_spec, make_scissors},
       {re_orientation_spec, make_re_orientation},
+      {pen_spec, make_pen},
+      {switch_spec, make_switch},
       {block_stack_spec, make_block_stack},
+      {pour_water_spec, make_pour_water},
       {grasp_and_place_spec, make_grasp_and_place},
   };
   return all;

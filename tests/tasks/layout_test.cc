@@ -135,6 +135,29 @@ std::array<double, 3> rpy_of(const double* q) {
 
 }  // namespace
 
+TEST_CASE("the registry holds the paper's twenty tasks in the canonical table's order",
+          "[tasks][layout]") {
+  // TASKS.md's table, written out here
+  const std::vector<std::string> ids = {
+      "hand_over",         "catch_underarm",   "catch_over2underarm", "catch_abreast",
+      "two_catch_underarm", "lift_underarm",   "door_open_outward",   "door_close_inward",
+      "door_open_inward",  "door_close_outward", "bottle_cap",        "push_block",
+      "swing_cup",         "scissors",         "re_orientation",      "pen",
+      "switch",            "block_stack",      "pour_water",          "grasp_and_place"};
+  std::vector<std::string> got;
+  for (auto& e : tasks::task_registry()) {
+    got.push_back(e.spec().id);
+    CHECK(e.spec().variant_of.empty());
+  }
+  CHECK(got == ids);
+  // variants are found by id but are not among the twenty
+  for (auto& e : tasks::variant_registry()) {
+    CHECK_FALSE(e.spec().variant_of.empty());
+    CHECK(std::find(ids.begin(), ids.end(), e.spec().id) == ids.end());
+    CHECK(&tasks::find_task(e.spec().id) == &e);
+  }
+}
+
 // (the catch family's; every other family's test file checks its own tasks the same way)
 TEST_CASE("every task's layouts are the paper's index tables", "[tasks][layout]") {
   REQUIRE(tasks::task_registry().size() >= paper_tasks().size());

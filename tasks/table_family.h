@@ -1,0 +1,138 @@
+// The table family (swing_cup, scissors, pen, switch, pour_water): two free-base hands above a
+// table that holds an articulated object built from primitives in code. The five tasks share
+// this code and differ in their kind (object, reward points, goal, success) and their YAML
+// (each task's folder holds its spec, its YAML and a README with every decision).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tasks/hands.h"
+#include "tasks/task.h"
+
+namespace bidex::tasks {
+
+enum class TableKind { kSwingCup, kScissors, kPen, kSwitch, kPourWater };
+
+struct TableParams {
+  std::string file;                 // the YAML it came from
+  int episode_length = 0;           // control steps
+  struct Pose {
+    sim::Vec3 pos{};
+    sim::Vec3 rpy{};  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
+  };
+  Pose right, left;                 // hand mounts
+  Pose object;                      // the object's root at the reset (switch: switch 1)
+  Pose second;                      // switch 2 (switch), the bucket (pour_water); unused else
+  sim::Vec3 table_pos{}, table_size{};  // table centre and full size (m)
+  // object
+  double object_friction = 1;       // sliding friction of the object's geoms
+  double joint_damping = 0;         // the object's hinge or slide (N m s/rad or N s/m)
+  double density = 500;             // kg/m^3 of the object's geoms
+  int water_count = 0;              // pour_water: balls of water in the kettle
+  double water_radius = 0.005;      // m
+  // reset
+  double hand_dof_noise = 0;        // fraction of the joint range (see sample_joint_noise)
+  double reset_angle = 0;           // scissors: the joint's start angle (rad)
+  // free bases: action +-1 gives force_scale * 1e5 / 60 N and torque_scale * 1e3 / 60 N m
+  double force_scale = 0, torque_scale = 0;
+  // reward (which are used depends on the kind; README of each task)
+  double offset = 0;                // the constant term
+  double gate = 0;                  // fingertip-distance sums below which the goal term pays
+  double goal_scale = 0;            // the goal term's factor
+  double goal_offset = 0;           // the goal term's constant
+  double rot_eps = 0.1;             // swing_cup: 1 / (theta + rot_eps)
+  double reach_scale = 10;          // pen: exp(-reach_scale x distance sum)
+  double goal_yaw = 0;              // swing_cup: the goal orientation, yaw about world z
+  double target_angle = 0;          // scissors: the joint's goal angle
+  double success = 0;               // the success threshold (units per kind)
+  // termination
+  double drop_height = 0;           // swing_cup, pour_water: the object (point) at or below it
+  double max_reach = 0;             // scissors, pen: a fingertip-distance sum at or above it
+};
+
+// Reads a table-family YAML strictly (unknown keys, missing fields, wrong types and impossible
+// values are ConfigErrors naming file, key, expected and actual value).
+TableParams load_table_params(const std::string& file, TableKind kind);
+
+// The spec of a family member: the paper's layout (two 199-wide hand blocks, object 13, goal
+// 7 + 4, two points 3 + 3 = 428) and the reward terms of its kind.
+TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_name,
+                           std::string original_name, HumanAge age, std::string skill,
+                           int episode_length);
+
+std::unique_ptr<Task> make_table_task(TableKind kind, const TaskSpec& spec,
+                                      const std::string& config_file);
+
+// Defines a family member's <id>_spec() and make_<id>() (declared in registry.h).
+#define BIDEX_DEFINE_TABLE_TASK(id, kind, ...)                                  \
+  const TaskSpec& id##_spec() {                                                 \
+    static const TaskSpec spec = table_family_spec(kind, #id, __VA_ARGS__);     \
+    return spec;                                                                \
+  }                                                                             \
+  std::unique_ptr<Task> make_##id(const std::string& config_file) {             \
+    return make_table_task(kind, id##_spec(), config_file);                     \
+  }
+
+// Geometry of the objects (metres, in each body's own frame; tasks/*/README.md draws them).
+namespace table_geom {
+// swing_cup: handle centres in the cup frame (right, left)
+constexpr double kCupHandleX = 0.075, kCupHandleZ = 0.07;
+// scissors: the moving half's hinge sits at its body origin, turned by kScissorsRest about z
+// relative to the root at joint angle 0 (closed at -kScissorsRest); handle centres
+constexpr double kScissorsRest = 0.5969, kScissorsLift = 0.008;
+constexpr double kScissorsHandleX = 0.15, kScissorsHandleY = 0.045;
+constexpr double kScissorsLower = -0.5969, kScissorsUpper = 0.4;
+// pen: cap body at +x of the pen body; grip points on each
+constexpr double kPenCapX = 0.03, kPenCapPoint = 0.06, kPenBodyPoint = -0.09, kPenTravel = 0.492;
+// switch: rocker hinge above the root, tilted by kSwitchTilt at 0; press point on the rocker
+constexpr double kSwitchHingeZ = 0.12, kSwitchTilt = 0.27925, kSwitchOn = 0.5585;
+constexpr double kSwitchPressX = 0.04, kSwitchPressZ = 0.008;
+constexpr double kSwitchArmature = 0.005;  // kg m^2 on each rocker hinge (README)
+// pour_water: kettle handle and spout in the kettle frame; bucket opening in the bucket frame
+constexpr double kKettleHandleX = 0.15, kKettleHandleZ = 0.08;
+constexpr double kSpoutX = -0.2, kSpoutZ = 0.13;
+constexpr double kBucketTop = 0.15;
+}  // namespace table_geom
+
+class TableTask : public Task {
+ public:
+  TableTask(TableKind kind, const TaskSpec& spec, TableParams params);
+
+  const TableParams& params() const { return p_; }
+  TableKind kind() const { return kind_; }
+  int episode_length() const override { return p_.episode_length; }
+  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
+                          const sim::PhysicsOptions& physics) const override;
+  void bind(const sim::SimModel& model) override;
+  void reset(TaskSlot& slot) const override;
+  void apply_actions(const float* a, TaskSlot& slot) const override;
+  bool evaluate(TaskSlot& slot, double* terms) const override;
+  void observe(const TaskSlot& slot, float* obs) const override;
+
+  // The two reward points (world): the right hand's and the left hand's (the tail's last 6, in
+  // this order except for the pen, whose tail lists the body point first as the paper).
+  void points(const TaskSlot& slot, double* right, double* left) const;
+  // The goal pose (position, (w, x, y, z)) and the orientation compared with it.
+  void goal(const TaskSlot& slot, double* pose, double* compared_quat) const;
+  // The goal term's error: swing_cup the rotation distance (rad), scissors |q - q*| (rad), pen
+  // the grip-point separation (m), switch the summed press-point distances (m), pour_water the
+  // spout's distance to the bucket opening (m).
+  double goal_error(const TaskSlot& slot) const;
+  // Whether the success condition holds in the slot's state.
+  bool success_now(const TaskSlot& slot) const;
+
+ private:
+  TableKind kind_;
+  TableParams p_;
+  HandRig hands_[2];
+  int body_[4] = {-1, -1, -1, -1};  // root, moving part or second object, switch 2's rocker, switch 2
+  int tree_ = -1;                // the observed body's tree root
+  int obs_body_ = -1;            // the body of the object block
+  int joint_qpos_[2] = {-1, -1};
+  int joint_dof_[2] = {-1, -1};
+  int t_offset_ = -1, t_right_ = -1, t_left_ = -1, t_goal_ = -1;
+};
+
+}  // namespace bidex::tasks
