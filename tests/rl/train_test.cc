@@ -278,3 +278,38 @@ TEST_CASE("SIGINT during training writes a checkpoint that --resume continues", 
   CHECK(r.rc == 130);
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == at + 2);
 }
+
+TEST_CASE("bidex render --run writes the frames of one episode of the trained policy",
+          "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run"), frames = tmp.file("frames");
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), dir, quiet());
+  auto r = test::bidex_run("render --run " + dir + " --out " + frames +
+                           " --max-frames 3 --width 64 --height 48");
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(r.out.find("wrote 3 frames") != std::string::npos);
+  for (const char* f : {"/frame_00000.png", "/frame_00001.png", "/frame_00002.png"})
+    CHECK(test::file_exists(frames + f));
+  CHECK_FALSE(test::file_exists(frames + "/frame_00003.png"));
+  // an MP4 when ffmpeg is installed, a note when it is not
+  CHECK((r.out.find("episode.mp4") != std::string::npos ||
+         r.out.find("ffmpeg is not on PATH") != std::string::npos));
+  auto both = test::bidex_run("render --run " + dir + " --task hand_over --out " + frames);
+  CHECK(both.rc == 2);
+  CHECK(both.out.find("exactly one of --task") != std::string::npos);
+}
+
+TEST_CASE("value normalisation trains, is saved and loads with the checkpoint", "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  rl::train_new(test::tiny_yaml("catch_underarm_raise", {"ppo.value_norm=true"}), dir, quiet());
+  for (double v : metric(dir, "value_loss")) CHECK(std::isfinite(v));
+  rl::LoadedPolicy p(dir);  // the value normaliser's buffers fit
+  CHECK(rl::evaluate(p, 2, 1, 1).episodes == 2);
+  // a checkpoint trained with it still fits a run without it (same tensors, unused)
+  const std::string other = tmp.file("other");
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), other, quiet());
+  rl::LoadedPolicy q(other, rl::list_checkpoints(dir).back());
+  CHECK(q.update() == 2);
+}
