@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
+#include "tasks/config_fields.h"
 #include "tasks/math.h"
 
 namespace bidex::tasks {
@@ -60,27 +61,10 @@ TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string o
 
 namespace {
 
-sim::Vec3 vec3(const YamlView& v) { return v.as<std::array<double, 3>>(); }
-
-double number(const YamlView& parent, const char* key, double lo, double hi, const char* what) {
-  auto v = parent.child(key);
-  double x = v.as<double>();
-  if (!(x >= lo && x <= hi)) v.fail(what, v.repr());
-  return x;
-}
-
-CatchParams::HandPose hand_pose(const YamlView& v) {
-  v.allow_keys({"pos", "rpy"});
-  CatchParams::HandPose h;
-  h.pos = vec3(v.child("pos"));
-  h.rpy = vec3(v.child("rpy"));
-  return h;
-}
-
 std::vector<sim::Vec3> anchors(const YamlView& v) {
   auto items = v.items();
   if (items.size() != 2) v.fail("2 positions (right hand, left hand)", v.repr());
-  return {vec3(items[0]), vec3(items[1])};
+  return {read_vec3(items[0]), read_vec3(items[1])};
 }
 
 }  // namespace
@@ -100,8 +84,8 @@ CatchParams load_catch_params(const std::string& file, const TaskSpec& spec) {
   {
     auto h = root.child("hands");
     h.allow_keys({"right", "left"});
-    p.right = hand_pose(h.child("right"));
-    p.left = hand_pose(h.child("left"));
+    p.right = read_hand_pose(h.child("right"));
+    p.left = read_hand_pose(h.child("left"));
   }
   {
     auto v = root.child("objects");
@@ -112,23 +96,23 @@ CatchParams load_catch_params(const std::string& file, const TaskSpec& spec) {
              std::to_string(items.size()) + " entries");
     for (auto& it : items) {
       it.allow_keys({"start", "goal"});
-      p.objects.push_back({vec3(it.child("start")), vec3(it.child("goal"))});
+      p.objects.push_back({read_vec3(it.child("start")), read_vec3(it.child("goal"))});
     }
   }
   {
     auto r = root.child("reset");
     r.allow_keys({"object_position_noise", "random_object_rotation", "random_goal_rotation",
                   "hand_dof_noise"});
-    p.object_position_noise = number(r, "object_position_noise", 0, 1, "a noise in [0, 1] m");
+    p.object_position_noise = read_number(r, "object_position_noise", 0, 1, "a noise in [0, 1] m");
     p.random_object_rotation = r.req<bool>("random_object_rotation");
     p.random_goal_rotation = r.req<bool>("random_goal_rotation");
-    p.hand_dof_noise = number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
+    p.hand_dof_noise = read_number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
   }
   if (spec.free_base) {
     auto b = root.child("base");
     b.allow_keys({"force_scale", "torque_scale"});
-    p.force_scale = number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    p.torque_scale = number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+    p.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+    p.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
   } else if (root.has("base")) {
     root.child("base").fail("no 'base' section: " + spec.id + " has fixed bases", "a base section");
   }
@@ -136,19 +120,19 @@ CatchParams load_catch_params(const std::string& file, const TaskSpec& spec) {
     auto r = root.child("reward");
     r.allow_keys({"dist_weight", "success_tolerance", "action_penalty", "goal_bonus",
                   "fall_penalty"});
-    p.dist_weight = number(r, "dist_weight", 0, 1e4, "a weight >= 0");
-    p.success_tolerance = number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
-    p.action_penalty = number(r, "action_penalty", -10, 0, "a coefficient in [-10, 0]");
-    p.goal_bonus = number(r, "goal_bonus", 0, 1e6, "a bonus >= 0");
-    p.fall_penalty = number(r, "fall_penalty", -1e6, 0, "a penalty <= 0");
+    p.dist_weight = read_number(r, "dist_weight", 0, 1e4, "a weight >= 0");
+    p.success_tolerance = read_number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
+    p.action_penalty = read_number(r, "action_penalty", -10, 0, "a coefficient in [-10, 0]");
+    p.goal_bonus = read_number(r, "goal_bonus", 0, 1e6, "a bonus >= 0");
+    p.fall_penalty = read_number(r, "fall_penalty", -1e6, 0, "a penalty <= 0");
   }
   {
     auto t = root.child("termination");
     t.allow_keys({"drop_height", "max_root_drift", "root_anchors", "max_palm_drift",
                   "palm_anchors"});
-    p.drop_height = number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
-    p.max_root_drift = number(t, "max_root_drift", 0, 10, "a distance in [0, 10] m (0: off)");
-    p.max_palm_drift = number(t, "max_palm_drift", 0, 10, "a distance in [0, 10] m (0: off)");
+    p.drop_height = read_number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
+    p.max_root_drift = read_number(t, "max_root_drift", 0, 10, "a distance in [0, 10] m (0: off)");
+    p.max_palm_drift = read_number(t, "max_palm_drift", 0, 10, "a distance in [0, 10] m (0: off)");
     p.root_anchors = {p.right.pos, p.left.pos};
     if (auto a = t.maybe("root_anchors")) p.root_anchors = anchors(*a);
     if (auto a = t.maybe("palm_anchors")) {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "tasks/config_fields.h"
 #include "tasks/hands.h"
 #include "tasks/objects.h"
 #include "tasks/task.h"
@@ -18,10 +19,7 @@ struct CatchParams {
   std::string file;                 // the YAML it came from
   int episode_length = 75;          // control steps
   ObjectChoice object;              // every object of the task has this shape
-  struct HandPose {
-    sim::Vec3 pos{};
-    sim::Vec3 rpy{};  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
-  };
+  using HandPose = tasks::HandPose;  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
   HandPose right, left;
   struct Throw {
     sim::Vec3 start{};  // object start position

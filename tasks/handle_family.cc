@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
+#include "tasks/config_fields.h"
 #include "tasks/math.h"
 #include "tasks/objects.h"
 
@@ -54,23 +55,6 @@ TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string 
 
 namespace {
 
-sim::Vec3 vec3(const YamlView& v) { return v.as<std::array<double, 3>>(); }
-
-double number(const YamlView& parent, const char* key, double lo, double hi, const char* what) {
-  auto v = parent.child(key);
-  double x = v.as<double>();
-  if (!(x >= lo && x <= hi)) v.fail(what, v.repr());
-  return x;
-}
-
-HandleParams::HandPose hand_pose(const YamlView& v) {
-  v.allow_keys({"pos", "rpy"});
-  HandleParams::HandPose h;
-  h.pos = vec3(v.child("pos"));
-  h.rpy = vec3(v.child("rpy"));
-  return h;
-}
-
 // a choice among two words
 bool word(const YamlView& parent, const char* key, const char* yes, const char* no) {
   auto v = parent.child(key);
@@ -99,60 +83,60 @@ HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
   {
     auto h = root.child("hands");
     h.allow_keys({"right", "left"});
-    p.right = hand_pose(h.child("right"));
-    p.left = hand_pose(h.child("left"));
+    p.right = read_hand_pose(h.child("right"));
+    p.left = read_hand_pose(h.child("left"));
   }
   {
     auto b = root.child("base");
     b.allow_keys({"force_scale", "torque_scale"});
-    p.force_scale = number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    p.torque_scale = number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+    p.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+    p.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
   }
   if (door) {
     auto d = root.child("door");
     d.allow_keys({"pos", "swing", "start_angle", "handle_height", "damping", "frictionloss",
                   "density", "friction"});
-    p.door.pos = vec3(d.child("pos"));
+    p.door.pos = read_vec3(d.child("pos"));
     p.door.inward = word(d, "swing", "inward", "outward");
-    p.door.start_angle = number(d, "start_angle", 0, M_PI / 2, "an angle in [0, pi/2] rad");
+    p.door.start_angle = read_number(d, "start_angle", 0, M_PI / 2, "an angle in [0, pi/2] rad");
     p.door.handle_height =
-        number(d, "handle_height", -geo::kLeafHeight / 2 + 0.07, geo::kLeafHeight / 2 - 0.07,
+        read_number(d, "handle_height", -geo::kLeafHeight / 2 + 0.07, geo::kLeafHeight / 2 - 0.07,
                "a height within the leaf, [-0.395, 0.395] m from the door's centre");
-    p.door.damping = number(d, "damping", 0, 1e3, "a damping in [0, 1000] N m s/rad");
-    p.door.frictionloss = number(d, "frictionloss", 0, 1e3, "a friction in [0, 1000] N m");
-    p.door.density = number(d, "density", 1, 1e5, "a density in [1, 1e5] kg/m^3");
-    p.door.friction = number(d, "friction", 0.01, 10, "a friction coefficient in [0.01, 10]");
+    p.door.damping = read_number(d, "damping", 0, 1e3, "a damping in [0, 1000] N m s/rad");
+    p.door.frictionloss = read_number(d, "frictionloss", 0, 1e3, "a friction in [0, 1000] N m");
+    p.door.density = read_number(d, "density", 1, 1e5, "a density in [1, 1e5] kg/m^3");
+    p.door.friction = read_number(d, "friction", 0.01, 10, "a friction coefficient in [0.01, 10]");
   } else {
     auto d = root.child("pot");
     d.allow_keys({"pos", "mass", "friction", "table_pos", "table_half_size", "goal"});
-    p.pot.pos = vec3(d.child("pos"));
-    p.pot.mass = number(d, "mass", 0.01, 100, "a mass in [0.01, 100] kg");
-    p.pot.friction = number(d, "friction", 0.01, 10, "a friction coefficient in [0.01, 10]");
-    p.pot.table_pos = vec3(d.child("table_pos"));
+    p.pot.pos = read_vec3(d.child("pos"));
+    p.pot.mass = read_number(d, "mass", 0.01, 100, "a mass in [0.01, 100] kg");
+    p.pot.friction = read_number(d, "friction", 0.01, 10, "a friction coefficient in [0.01, 10]");
+    p.pot.table_pos = read_vec3(d.child("table_pos"));
     auto hs = d.child("table_half_size");
-    p.pot.table_half_size = vec3(hs);
+    p.pot.table_half_size = read_vec3(hs);
     for (double x : p.pot.table_half_size)
       if (!(x > 0)) hs.fail("three half sizes > 0 (m)", hs.repr());
-    p.pot.goal = vec3(d.child("goal"));
+    p.pot.goal = read_vec3(d.child("goal"));
   }
   {
     auto r = root.child("reward");
     r.allow_keys({"hand_point", "constant", "goal_weight", "goal_offset", "goal_gate"});
     p.palm_distance = word(r, "hand_point", "palm", "fingertips");
-    p.constant = number(r, "constant", -1e3, 1e3, "a constant in [-1000, 1000]");
-    p.goal_weight = number(r, "goal_weight", -1e3, 1e3, "a weight in [-1000, 1000]");
-    p.goal_offset = number(r, "goal_offset", -1e3, 1e3, "an offset in [-1000, 1000] m");
-    p.goal_gate = number(r, "goal_gate", 0, 100, "a distance in [0, 100] m (0: off)");
+    p.constant = read_number(r, "constant", -1e3, 1e3, "a constant in [-1000, 1000]");
+    p.goal_weight = read_number(r, "goal_weight", -1e3, 1e3, "a weight in [-1000, 1000]");
+    p.goal_offset = read_number(r, "goal_offset", -1e3, 1e3, "an offset in [-1000, 1000] m");
+    p.goal_gate = read_number(r, "goal_gate", 0, 100, "a distance in [0, 100] m (0: off)");
   }
   {
     auto s = root.child("success");
     if (door) {
       s.allow_keys({"handle_gap", "when"});
-      p.success_gap = number(s, "handle_gap", 0, 10, "a distance in [0, 10] m");
+      p.success_gap = read_number(s, "handle_gap", 0, 10, "a distance in [0, 10] m");
       p.success_wider = word(s, "when", "wider", "narrower");
     } else {
       s.allow_keys({"distance"});
-      p.success_distance = number(s, "distance", 0, 10, "a distance in [0, 10] m");
+      p.success_distance = read_number(s, "distance", 0, 10, "a distance in [0, 10] m");
     }
   }
   {
@@ -161,10 +145,10 @@ HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
       t.allow_keys({"max_hand_distance"});
     } else {
       t.allow_keys({"drop_height", "max_hand_distance"});
-      p.drop_height = number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
+      p.drop_height = read_number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
     }
     p.max_hand_distance =
-        number(t, "max_hand_distance", 0, 100, "a distance in [0, 100] m (0: off)");
+        read_number(t, "max_hand_distance", 0, 100, "a distance in [0, 100] m (0: off)");
   }
   return p;
 }

@@ -10,6 +10,7 @@
 #include <memory>
 #include <string>
 
+#include "tasks/config_fields.h"
 #include "tasks/hands.h"
 #include "tasks/task.h"
 
@@ -20,10 +21,7 @@ struct HandleParams {
   std::string file;          // the YAML it came from
   Kind kind = Kind::kPot;
   int episode_length = 250;  // control steps
-  struct HandPose {
-    sim::Vec3 pos{};
-    sim::Vec3 rpy{};  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
-  };
+  using HandPose = tasks::HandPose;  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
   HandPose right, left;
   // free bases: action +-1 gives force_scale * 1e5 / 60 N and torque_scale * 1e3 / 60 N m
   double force_scale = 0, torque_scale = 0;

@@ -7,30 +7,14 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
+#include "tasks/config_fields.h"
 #include "tasks/math.h"
 
 namespace bidex::tasks::manip {
 
 // ---- config -------------------------------------------------------------------------------
 
-sim::Vec3 vec3(const YamlView& v) { return v.as<std::array<double, 3>>(); }
-
-double number(const YamlView& parent, const char* key, double lo, double hi, const char* what) {
-  auto v = parent.child(key);
-  double x = v.as<double>();
-  if (!(x >= lo && x <= hi)) v.fail(what, v.repr());
-  return x;
-}
-
 namespace {
-HandPose hand_pose(const YamlView& v) {
-  v.allow_keys({"pos", "rpy"});
-  HandPose h;
-  h.pos = vec3(v.child("pos"));
-  h.rpy = vec3(v.child("rpy"));
-  return h;
-}
-
 std::string num(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.10g", v);
@@ -49,14 +33,14 @@ CommonParams load_common(const YamlView& root, const std::string& file) {
   {
     auto h = root.child("hands");
     h.allow_keys({"right", "left"});
-    c.right = hand_pose(h.child("right"));
-    c.left = hand_pose(h.child("left"));
+    c.right = read_hand_pose(h.child("right"));
+    c.left = read_hand_pose(h.child("left"));
   }
   {
     auto b = root.child("base");
     b.allow_keys({"force_scale", "torque_scale"});
-    c.force_scale = number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    c.torque_scale = number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+    c.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+    c.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
   }
   return c;
 }
@@ -64,14 +48,14 @@ CommonParams load_common(const YamlView& root, const std::string& file) {
 TableParams load_table(const YamlView& v) {
   v.allow_keys({"pos", "half_size", "friction"});
   TableParams t;
-  t.pos = vec3(v.child("pos"));
+  t.pos = read_vec3(v.child("pos"));
   {
     auto h = v.child("half_size");
-    t.half_size = vec3(h);
+    t.half_size = read_vec3(h);
     for (double x : t.half_size)
       if (!(x > 0 && x <= 10)) h.fail("3 half sizes in (0, 10] m", h.repr());
   }
-  t.friction = number(v, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+  t.friction = read_number(v, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
   return t;
 }
 

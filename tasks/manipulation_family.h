@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "tasks/config_fields.h"
 #include "tasks/hands.h"
 #include "tasks/objects.h"
 #include "tasks/task.h"
@@ -17,10 +18,7 @@ class YamlView;
 
 namespace bidex::tasks::manip {
 
-struct HandPose {
-  sim::Vec3 pos{};
-  sim::Vec3 rpy{};  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
-};
+using tasks::HandPose;  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
 
 // The YAML keys every task of the family has: episode_length, hands {right, left}, base
 // {force_scale, torque_scale}.
@@ -33,8 +31,6 @@ struct CommonParams {
 
 // Strict readers (ConfigError naming file, key, expected and actual value).
 CommonParams load_common(const YamlView& root, const std::string& file);
-sim::Vec3 vec3(const YamlView& v);
-double number(const YamlView& parent, const char* key, double lo, double hi, const char* what);
 
 // A table: a welded box (centre pose, half sizes) with its own sliding friction.
 struct TableParams {

@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
+#include "tasks/config_fields.h"
 #include "tasks/math.h"
 #include "tasks/objects.h"
 
@@ -100,27 +101,18 @@ void allow(const YamlView& v, const std::vector<std::string>& allowed) {
   }
 }
 
-double number(const YamlView& parent, const char* key, double lo, double hi, const char* what) {
-  auto v = parent.child(key);
-  double x = v.as<double>();
-  if (!(x >= lo && x <= hi)) v.fail(what, v.repr());
-  return x;
-}
-
 void read_numbers(const YamlView& v, const std::vector<Num>& keys, TableParams& p) {
   std::vector<std::string> names;
   for (auto& n : keys) names.push_back(n.key);
   allow(v, names);
-  for (auto& n : keys) p.*n.field = number(v, n.key, n.lo, n.hi, n.what);
+  for (auto& n : keys) p.*n.field = read_number(v, n.key, n.lo, n.hi, n.what);
 }
-
-sim::Vec3 vec3(const YamlView& v) { return v.as<std::array<double, 3>>(); }
 
 TableParams::Pose pose(const YamlView& v, std::vector<std::string> more = {}) {
   more.push_back("pos");
   more.push_back("rpy");
   allow(v, more);
-  return {vec3(v.child("pos")), vec3(v.child("rpy"))};
+  return {read_vec3(v.child("pos")), read_vec3(v.child("rpy"))};
 }
 
 }  // namespace
@@ -154,10 +146,10 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
     std::vector<std::string> extra = {"friction", "density"};
     if (has_joint(kind)) extra.push_back("joint_damping");
     p.object = pose(o, extra);
-    p.object_friction = number(o, "friction", 0, 10, "a friction coefficient in [0, 10]");
-    p.density = number(o, "density", 1, 1e5, "a density in [1, 1e5] kg/m^3");
+    p.object_friction = read_number(o, "friction", 0, 10, "a friction coefficient in [0, 10]");
+    p.density = read_number(o, "density", 1, 1e5, "a density in [1, 1e5] kg/m^3");
     if (has_joint(kind))
-      p.joint_damping = number(o, "joint_damping", 0, 100, "a damping in [0, 100]");
+      p.joint_damping = read_number(o, "joint_damping", 0, 100, "a damping in [0, 100]");
   }
   if (has_second(kind)) p.second = pose(root.child(second));
   if (kind == TableKind::kPourWater) {
@@ -166,14 +158,14 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
     auto c = w.child("count");
     p.water_count = c.as<int>();
     if (p.water_count < 0 || p.water_count > 30) c.fail("a count in [0, 30]", c.repr());
-    p.water_radius = number(w, "radius", 0.003, 0.012, "a radius in [0.003, 0.012] m");
+    p.water_radius = read_number(w, "radius", 0.003, 0.012, "a radius in [0.003, 0.012] m");
   }
   {
     auto t = root.child("table");
     allow(t, {"pos", "size"});
-    p.table_pos = vec3(t.child("pos"));
+    p.table_pos = read_vec3(t.child("pos"));
     auto sv = t.child("size");
-    p.table_size = vec3(sv);
+    p.table_size = read_vec3(sv);
     for (double x : p.table_size)
       if (!(x > 0)) sv.fail("sizes > 0 (m)", sv.repr());
   }
@@ -181,18 +173,18 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
     auto r = root.child("reset");
     if (kind == TableKind::kScissors) {
       allow(r, {"hand_dof_noise", "joint_angle"});
-      p.reset_angle = number(r, "joint_angle", g::kScissorsLower, g::kScissorsUpper,
+      p.reset_angle = read_number(r, "joint_angle", g::kScissorsLower, g::kScissorsUpper,
                              "an angle inside the joint range [-0.5969, 0.4] rad");
     } else {
       allow(r, {"hand_dof_noise"});
     }
-    p.hand_dof_noise = number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
+    p.hand_dof_noise = read_number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
   }
   {
     auto b = root.child("base");
     allow(b, {"force_scale", "torque_scale"});
-    p.force_scale = number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    p.torque_scale = number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+    p.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+    p.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
   }
   read_numbers(root.child("reward"), reward_keys(kind), p);
   if (kind != TableKind::kSwitch) {

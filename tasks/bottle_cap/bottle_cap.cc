@@ -46,30 +46,30 @@ CapParams load(const std::string& file) {
     auto b = root.child("bottle");
     b.allow_keys({"start", "rpy", "density", "friction", "cap_travel", "cap_frictionloss",
                   "cap_damping", "twist_damping", "cap_point"});
-    p.bottle_start = manip::vec3(b.child("start"));
-    p.bottle_rpy = manip::vec3(b.child("rpy"));
-    p.density = manip::number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.friction = manip::number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
-    p.cap_travel = manip::number(b, "cap_travel", 0.001, 0.5, "a travel in [0.001, 0.5] m");
-    p.cap_frictionloss = manip::number(b, "cap_frictionloss", 0, 100, "a friction force in [0, 100] N");
-    p.cap_damping = manip::number(b, "cap_damping", 0, 100, "a damping in [0, 100] N s/m");
-    p.twist_damping = manip::number(b, "twist_damping", 0, 10, "a damping in [0, 10] N m s/rad");
-    p.cap_point = manip::number(b, "cap_point", -1, 1, "an offset in [-1, 1] m");
+    p.bottle_start = read_vec3(b.child("start"));
+    p.bottle_rpy = read_vec3(b.child("rpy"));
+    p.density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.cap_travel = read_number(b, "cap_travel", 0.001, 0.5, "a travel in [0.001, 0.5] m");
+    p.cap_frictionloss = read_number(b, "cap_frictionloss", 0, 100, "a friction force in [0, 100] N");
+    p.cap_damping = read_number(b, "cap_damping", 0, 100, "a damping in [0, 100] N s/m");
+    p.twist_damping = read_number(b, "twist_damping", 0, 10, "a damping in [0, 10] N m s/rad");
+    p.cap_point = read_number(b, "cap_point", -1, 1, "an offset in [-1, 1] m");
   }
   {
     auto r = root.child("reward");
     r.allow_keys({"offset", "open_scale", "goal_gate", "success_opening"});
-    p.offset = manip::number(r, "offset", -100, 100, "an offset in [-100, 100]");
-    p.open_scale = manip::number(r, "open_scale", 0, 1e4, "a scale in [0, 1e4]");
-    p.goal_gate = manip::number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
-    p.success_opening = manip::number(r, "success_opening", 0, 1, "a distance in [0, 1] m");
+    p.offset = read_number(r, "offset", -100, 100, "an offset in [-100, 100]");
+    p.open_scale = read_number(r, "open_scale", 0, 1e4, "a scale in [0, 1e4]");
+    p.goal_gate = read_number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
+    p.success_opening = read_number(r, "success_opening", 0, 1, "a distance in [0, 1] m");
   }
   {
     auto t = root.child("termination");
     t.allow_keys({"cap_drop_height", "max_right_palm", "max_left_palm"});
-    p.cap_drop_height = manip::number(t, "cap_drop_height", -10, 10, "a height in [-10, 10] m");
-    p.max_right_palm = manip::number(t, "max_right_palm", 0, 10, "a distance in [0, 10] m (0: off)");
-    p.max_left_palm = manip::number(t, "max_left_palm", 0, 10, "a distance in [0, 10] m (0: off)");
+    p.cap_drop_height = read_number(t, "cap_drop_height", -10, 10, "a height in [-10, 10] m");
+    p.max_right_palm = read_number(t, "max_right_palm", 0, 10, "a distance in [0, 10] m (0: off)");
+    p.max_left_palm = read_number(t, "max_left_palm", 0, 10, "a distance in [0, 10] m (0: off)");
   }
   return p;
 }

@@ -42,14 +42,14 @@ PlaceParams load(const std::string& file) {
   {
     auto b = root.child("bucket");
     b.allow_keys({"half_width", "height", "wall", "density", "friction", "start"});
-    p.bucket_half_width = manip::number(b, "half_width", 0.02, 0.5, "a half width in [0.02, 0.5] m");
-    p.bucket_height = manip::number(b, "height", 0.02, 1, "a height in [0.02, 1] m");
-    p.bucket_wall = manip::number(b, "wall", 0.001, 0.05, "a wall thickness in [0.001, 0.05] m");
+    p.bucket_half_width = read_number(b, "half_width", 0.02, 0.5, "a half width in [0.02, 0.5] m");
+    p.bucket_height = read_number(b, "height", 0.02, 1, "a height in [0.02, 1] m");
+    p.bucket_wall = read_number(b, "wall", 0.001, 0.05, "a wall thickness in [0.001, 0.05] m");
     if (!(2 * p.bucket_wall < p.bucket_half_width))
       b.child("wall").fail("a wall thinner than half the bucket's half width", b.child("wall").repr());
-    p.bucket_density = manip::number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.bucket_friction = manip::number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
-    p.bucket_start = manip::vec3(b.child("start"));
+    p.bucket_density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.bucket_friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.bucket_start = read_vec3(b.child("start"));
   }
   {
     auto o = root.child("object");
@@ -57,24 +57,24 @@ PlaceParams load(const std::string& file) {
     auto s = o.child("shape");
     p.object_shape = s.as<std::string>();
     if (p.object_shape != "block" && p.object_shape != "ball") s.fail("block or ball", s.repr());
-    p.object_size = manip::number(o, "size", 0.01, 0.2, "an edge or diameter in [0.01, 0.2] m");
-    p.object_density = manip::number(o, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.object_friction = manip::number(o, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
-    p.object_start = manip::vec3(o.child("start"));
-    p.object_rpy = manip::vec3(o.child("rpy"));
+    p.object_size = read_number(o, "size", 0.01, 0.2, "an edge or diameter in [0.01, 0.2] m");
+    p.object_density = read_number(o, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.object_friction = read_number(o, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.object_start = read_vec3(o.child("start"));
+    p.object_rpy = read_vec3(o.child("rpy"));
   }
   {
     auto r = root.child("reward");
     r.allow_keys({"decay", "place_scale", "success_tolerance"});
-    p.decay = manip::number(r, "decay", 0, 1000, "a rate in [0, 1000] 1/m");
-    p.place_scale = manip::number(r, "place_scale", 0, 1000, "a scale in [0, 1000]");
-    p.success_tolerance = manip::number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
+    p.decay = read_number(r, "decay", 0, 1000, "a rate in [0, 1000] 1/m");
+    p.place_scale = read_number(r, "place_scale", 0, 1000, "a scale in [0, 1000]");
+    p.success_tolerance = read_number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
   }
   {
     auto t = root.child("termination");
     t.allow_keys({"max_tip_distance"});
     p.max_tip_distance =
-        manip::number(t, "max_tip_distance", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
+        read_number(t, "max_tip_distance", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
   }
   return p;
 }

@@ -35,31 +35,31 @@ PushParams load(const std::string& file) {
   {
     auto b = root.child("blocks");
     b.allow_keys({"edge", "density", "friction", "rpy", "block1", "block2"});
-    p.edge = manip::number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
-    p.density = manip::number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.friction = manip::number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
-    p.rpy = manip::vec3(b.child("rpy"));
+    p.edge = read_number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
+    p.density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.rpy = read_vec3(b.child("rpy"));
     const char* names[2] = {"block1", "block2"};
     for (int i = 0; i < 2; ++i) {
       auto v = b.child(names[i]);
       v.allow_keys({"start", "goal"});
-      p.start[i] = manip::vec3(v.child("start"));
-      p.goal[i] = manip::vec3(v.child("goal"));
+      p.start[i] = read_vec3(v.child("start"));
+      p.goal[i] = read_vec3(v.child("goal"));
     }
   }
   {
     auto r = root.child("reward");
     r.allow_keys({"offset", "goal_scale", "goal_offset", "success_tolerance"});
-    p.offset = manip::number(r, "offset", -100, 100, "an offset in [-100, 100]");
-    p.goal_scale = manip::number(r, "goal_scale", 0, 1000, "a scale in [0, 1000]");
-    p.goal_offset = manip::number(r, "goal_offset", -10, 10, "a distance in [-10, 10] m");
-    p.success_tolerance = manip::number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
+    p.offset = read_number(r, "offset", -100, 100, "an offset in [-100, 100]");
+    p.goal_scale = read_number(r, "goal_scale", 0, 1000, "a scale in [0, 1000]");
+    p.goal_offset = read_number(r, "goal_offset", -10, 10, "a distance in [-10, 10] m");
+    p.success_tolerance = read_number(r, "success_tolerance", 0, 10, "a distance in [0, 10] m");
   }
   {
     auto t = root.child("termination");
     t.allow_keys({"max_tip_distance"});
     p.max_tip_distance =
-        manip::number(t, "max_tip_distance", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
+        read_number(t, "max_tip_distance", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
   }
   return p;
 }

@@ -37,41 +37,41 @@ ReorientParams load(const std::string& file) {
   {
     auto b = root.child("objects");
     b.allow_keys({"edge", "density", "friction", "object1", "object2"});
-    p.edge = manip::number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
-    p.density = manip::number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.friction = manip::number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+    p.edge = read_number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
+    p.density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+    p.friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
     const char* names[2] = {"object1", "object2"};
     for (int i = 0; i < 2; ++i) {
       auto v = b.child(names[i]);
       v.allow_keys({"start", "goal"});
-      p.start[i] = manip::vec3(v.child("start"));
-      p.goal[i] = manip::vec3(v.child("goal"));
+      p.start[i] = read_vec3(v.child("start"));
+      p.goal[i] = read_vec3(v.child("goal"));
     }
   }
   {
     auto r = root.child("reset");
     r.allow_keys({"object_position_noise", "random_object_rotation", "random_goal_rotation",
                   "hand_dof_noise"});
-    p.object_position_noise = manip::number(r, "object_position_noise", 0, 1, "a noise in [0, 1] m");
+    p.object_position_noise = read_number(r, "object_position_noise", 0, 1, "a noise in [0, 1] m");
     p.random_object_rotation = r.req<bool>("random_object_rotation");
     p.random_goal_rotation = r.req<bool>("random_goal_rotation");
-    p.hand_dof_noise = manip::number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
+    p.hand_dof_noise = read_number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
   }
   {
     auto r = root.child("reward");
     r.allow_keys({"dist_scale", "rot_scale", "rot_eps", "action_penalty", "goal_bonus",
                   "rotation_tolerance"});
-    p.dist_scale = manip::number(r, "dist_scale", -1e4, 0, "a scale <= 0");
-    p.rot_scale = manip::number(r, "rot_scale", 0, 1e4, "a scale >= 0");
-    p.rot_eps = manip::number(r, "rot_eps", 1e-6, 10, "an epsilon in [1e-6, 10] rad");
-    p.action_penalty = manip::number(r, "action_penalty", -10, 0, "a coefficient in [-10, 0]");
-    p.goal_bonus = manip::number(r, "goal_bonus", 0, 1e6, "a bonus >= 0");
-    p.rotation_tolerance = manip::number(r, "rotation_tolerance", 0, M_PI, "an angle in [0, pi] rad");
+    p.dist_scale = read_number(r, "dist_scale", -1e4, 0, "a scale <= 0");
+    p.rot_scale = read_number(r, "rot_scale", 0, 1e4, "a scale >= 0");
+    p.rot_eps = read_number(r, "rot_eps", 1e-6, 10, "an epsilon in [1e-6, 10] rad");
+    p.action_penalty = read_number(r, "action_penalty", -10, 0, "a coefficient in [-10, 0]");
+    p.goal_bonus = read_number(r, "goal_bonus", 0, 1e6, "a bonus >= 0");
+    p.rotation_tolerance = read_number(r, "rotation_tolerance", 0, M_PI, "an angle in [0, pi] rad");
   }
   {
     auto t = root.child("termination");
     t.allow_keys({"drop_height"});
-    p.drop_height = manip::number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
+    p.drop_height = read_number(t, "drop_height", -10, 10, "a height in [-10, 10] m");
   }
   return p;
 }
