@@ -17,17 +17,9 @@ namespace bidex::tasks {
 TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string original_name,
                            HumanAge age, Difficulty difficulty, std::string skill,
                            int episode_length, bool free_base, int nobjects) {
-  TaskSpec s;
-  s.id = std::move(id);
-  s.paper_name = std::move(paper_name);
-  s.original_name = std::move(original_name);
-  s.age = std::move(age);
-  s.difficulty = difficulty;
-  s.skill = std::move(skill);
-  s.episode_length = episode_length;
-  s.free_base = free_base;
-  add_hand_obs(s.obs, "right", free_base);
-  add_hand_obs(s.obs, "left", free_base);
+  TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
+                             std::move(age), difficulty, std::move(skill), episode_length,
+                             free_base);
   for (int i = 0; i < nobjects; ++i) {
     const std::string n = nobjects == 1 ? "" : std::to_string(i + 1);
     const std::string o = "object" + n, g = "goal" + n;
@@ -40,8 +32,6 @@ TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string o
               "object rot of the paper",
               true);
   }
-  add_hand_act(s.act, "right", free_base);
-  add_hand_act(s.act, "left", free_base);
   s.agents = agents_per_hand(s.obs, s.act);
   if (nobjects == 1) {
     s.reward_terms.push_back({"pose", "exp(-0.2 (alpha d + theta)): d the object's distance to "

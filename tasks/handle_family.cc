@@ -20,17 +20,9 @@ namespace geo = handle_geometry;
 TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string original_name,
                             HumanAge age, Difficulty difficulty, std::string skill,
                             int episode_length, const std::string& object) {
-  TaskSpec s;
-  s.id = std::move(id);
-  s.paper_name = std::move(paper_name);
-  s.original_name = std::move(original_name);
-  s.age = std::move(age);
-  s.difficulty = difficulty;
-  s.skill = std::move(skill);
-  s.episode_length = episode_length;
-  s.free_base = true;
-  add_hand_obs(s.obs, "right", true);
-  add_hand_obs(s.obs, "left", true);
+  TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
+                             std::move(age), difficulty, std::move(skill), episode_length,
+                             true);
   s.obs.add("object.pose", 7, "the " + object + "'s position (m) and orientation (x, y, z, w)");
   s.obs.add("object.linvel", 3, "the " + object + "'s linear velocity (m/s), world frame");
   s.obs.add("object.angvel", 3, "the " + object + "'s angular velocity (rad/s) x 0.2");
@@ -41,8 +33,6 @@ TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string 
             true);
   s.obs.add("right_handle.pos", 3, "the " + object + "'s right handle point (m), world frame");
   s.obs.add("left_handle.pos", 3, "the " + object + "'s left handle point (m), world frame");
-  add_hand_act(s.act, "right", true);
-  add_hand_act(s.act, "left", true);
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms.push_back({"constant", "reward.constant (0.2 in the paper)"});
   s.reward_terms.push_back({"right_hand", "-d_right: the right hand's distance to its handle (m)"});

@@ -64,19 +64,9 @@ TableParams load_table(const YamlView& v) {
 TaskSpec spec_with_hands(std::string id, std::string paper_name, std::string original_name,
                          HumanAge age, Difficulty difficulty, std::string skill,
                          int episode_length) {
-  TaskSpec s;
-  s.id = std::move(id);
-  s.paper_name = std::move(paper_name);
-  s.original_name = std::move(original_name);
-  s.age = std::move(age);
-  s.difficulty = difficulty;
-  s.skill = std::move(skill);
-  s.episode_length = episode_length;
-  s.free_base = true;
-  add_hand_obs(s.obs, "right", true);
-  add_hand_obs(s.obs, "left", true);
-  add_hand_act(s.act, "right", true);
-  add_hand_act(s.act, "left", true);
+  TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
+                             std::move(age), difficulty, std::move(skill), episode_length,
+                             true);
   return s;
 }
 

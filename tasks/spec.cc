@@ -88,4 +88,23 @@ std::vector<AgentSpec> agents_per_hand(const Layout& obs, const Layout& act) {
   return agents;
 }
 
+TaskSpec two_hand_spec(std::string id, std::string paper_name, std::string original_name,
+                       HumanAge age, Difficulty difficulty, std::string skill, int episode_length,
+                       bool free_base) {
+  TaskSpec s;
+  s.id = std::move(id);
+  s.paper_name = std::move(paper_name);
+  s.original_name = std::move(original_name);
+  s.age = std::move(age);
+  s.difficulty = difficulty;
+  s.skill = std::move(skill);
+  s.episode_length = episode_length;
+  s.free_base = free_base;
+  add_hand_obs(s.obs, "right", free_base);
+  add_hand_obs(s.obs, "left", free_base);
+  add_hand_act(s.act, "right", free_base);
+  add_hand_act(s.act, "left", free_base);
+  return s;
+}
+
 }  // namespace bidex::tasks

@@ -88,6 +88,12 @@ void add_hand_act(Layout& act, const std::string& side, bool free_base);
 constexpr int kHandObsFixed = 187;
 constexpr int kHandObsFree = 199;
 
+// A spec with its names, age, difficulty, skill and episode length, and the two hand blocks of
+// the observation and the action (fixed or free bases); the task adds its tail, terms, agents.
+TaskSpec two_hand_spec(std::string id, std::string paper_name, std::string original_name,
+                       HumanAge age, Difficulty difficulty, std::string skill, int episode_length,
+                       bool free_base);
+
 // One agent per hand: its own hand block plus every non-hand slice of the observation (the
 // task tail), and its own action slices.
 std::vector<AgentSpec> agents_per_hand(const Layout& obs, const Layout& act);

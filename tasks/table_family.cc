@@ -201,17 +201,9 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
 TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_name,
                            std::string original_name, HumanAge age, std::string skill,
                            int episode_length) {
-  TaskSpec s;
-  s.id = std::move(id);
-  s.paper_name = std::move(paper_name);
-  s.original_name = std::move(original_name);
-  s.age = std::move(age);
-  s.difficulty = kind == TableKind::kPourWater ? Difficulty::kHard : Difficulty::kEasy;
-  s.skill = std::move(skill);
-  s.episode_length = episode_length;
-  s.free_base = true;
-  add_hand_obs(s.obs, "right", true);
-  add_hand_obs(s.obs, "left", true);
+  TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
+                             std::move(age), kind == TableKind::kPourWater ? Difficulty::kHard : Difficulty::kEasy, std::move(skill), episode_length,
+                             true);
   const char* what = "";
   const char* goal = "";
   const char* rot = "";
@@ -267,8 +259,6 @@ TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_nam
   s.obs.add("goal.rot_diff", 4, rot, true);
   s.obs.add(n1, 3, p1);
   s.obs.add(n2, 3, p2);
-  add_hand_act(s.act, "right", true);
-  add_hand_act(s.act, "left", true);
   s.agents = agents_per_hand(s.obs, s.act);
   auto term = [&](const char* n, const char* d) { s.reward_terms.push_back({n, d}); };
   switch (kind) {
