@@ -23,14 +23,8 @@ TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string o
   for (int i = 0; i < nobjects; ++i) {
     const std::string n = nobjects == 1 ? "" : std::to_string(i + 1);
     const std::string o = "object" + n, g = "goal" + n;
-    s.obs.add(o + ".pose", 7, "object position (m) and orientation (x, y, z, w), world frame");
-    s.obs.add(o + ".linvel", 3, "object linear velocity (m/s), world frame");
-    s.obs.add(o + ".angvel", 3, "object angular velocity (rad/s) x 0.2, world frame");
-    s.obs.add(g + ".pose", 7, "goal position and orientation (x, y, z, w)", true);
-    s.obs.add(g + ".rot_diff", 4,
-              "object orientation times the goal's conjugate, (x, y, z, w): the goal rot - "
-              "object rot of the paper",
-              true);
+    add_object_obs(s.obs, o, "the " + o);
+    add_goal_obs(s.obs, g, "the " + o + "'s goal");
   }
   s.agents = agents_per_hand(s.obs, s.act);
   if (nobjects == 1) {

@@ -23,14 +23,8 @@ TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string 
   TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
                              std::move(age), difficulty, std::move(skill), episode_length,
                              true);
-  s.obs.add("object.pose", 7, "the " + object + "'s position (m) and orientation (x, y, z, w)");
-  s.obs.add("object.linvel", 3, "the " + object + "'s linear velocity (m/s), world frame");
-  s.obs.add("object.angvel", 3, "the " + object + "'s angular velocity (rad/s) x 0.2");
-  s.obs.add("goal.pose", 7, "goal position and orientation (x, y, z, w)", true);
-  s.obs.add("goal.rot_diff", 4,
-            "object orientation times the goal's conjugate, (x, y, z, w): the goal rot - object "
-            "rot of the paper",
-            true);
+  add_object_obs(s.obs, "object", "the " + object);
+  add_goal_obs(s.obs, "goal", "the " + object + "'s goal");
   s.obs.add("right_handle.pos", 3, "the " + object + "'s right handle point (m), world frame");
   s.obs.add("left_handle.pos", 3, "the " + object + "'s left handle point (m), world frame");
   s.agents = agents_per_hand(s.obs, s.act);

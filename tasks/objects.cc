@@ -24,6 +24,22 @@ void observe_object(const sim::SlotView& v, int body, int root_tree, float* out)
   for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(0.2 * ang[k]);
 }
 
+void add_object_obs(Layout& obs, const std::string& name, const std::string& what) {
+  obs.add(name + ".pose", 7, what + ": position (m) and orientation (x, y, z, w), world frame");
+  obs.add(name + ".linvel", 3, what + ": linear velocity (m/s), world frame");
+  obs.add(name + ".angvel", 3, what + ": angular velocity (rad/s) x 0.2, world frame");
+}
+
+void add_goal_obs(Layout& obs, const std::string& name, const std::string& goal_doc,
+                  const std::string& rot_doc) {
+  obs.add(name + ".pose", 7, goal_doc + ": position (m) and orientation (x, y, z, w)", true);
+  obs.add(name + ".rot_diff", 4,
+          rot_doc.empty() ? "the object's orientation times the goal's conjugate (x, y, z, w): "
+                            "the paper's goal rot - object rot"
+                          : rot_doc,
+          true);
+}
+
 void observe_goal(const double* goal, const double* object_quat, float* out) {
   for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(goal[k]);
   math::put_quat_xyzw(out + 3, goal + 3);

@@ -9,6 +9,7 @@
 
 #include "sim/batch.h"
 #include "sim/scene.h"
+#include "tasks/spec.h"
 
 namespace bidex {
 class YamlView;
@@ -35,6 +36,13 @@ double bounding_radius(const sim::ObjectSpec& o);
 // The object block of an observation (13 values): position 3, orientation (x, y, z, w) 4, linear
 // velocity 3, angular velocity x 0.2 3, of a body whose tree's root body is `root_tree`.
 void observe_object(const sim::SlotView& v, int body, int root_tree, float* out);
+// Their layouts: `<name>.pose` 7, `.linvel` 3, `.angvel` 3, with `what` (e.g. "the pot") in the
+// docs; and `<name>.pose` 7, `.rot_diff` 4, both goal slices (masked in meta-RL), `goal_doc`
+// saying what the goal pose is and `rot_doc` whose orientation the difference takes (default:
+// the object's).
+void add_object_obs(Layout& obs, const std::string& name, const std::string& what);
+void add_goal_obs(Layout& obs, const std::string& name, const std::string& goal_doc,
+                  const std::string& rot_doc = "");
 // The goal block (11 values): goal position 3, goal orientation 4, then the quaternion difference
 // object * conj(goal) 4 (orientations written (x, y, z, w)); `goal` is position then (w, x, y, z).
 void observe_goal(const double* goal, const double* object_quat, float* out);

@@ -251,12 +251,8 @@ TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_nam
       n2 = "bucket.pos", p2 = "the centre of the bucket's opening (left hand's), world frame (m)";
       break;
   }
-  s.obs.add("object.pose", 7,
-            std::string("position (m) and orientation (x, y, z, w) of ") + what + ", world frame");
-  s.obs.add("object.linvel", 3, std::string("linear velocity (m/s) of ") + what);
-  s.obs.add("object.angvel", 3, std::string("angular velocity (rad/s) x 0.2 of ") + what);
-  s.obs.add("goal.pose", 7, std::string("position and orientation (x, y, z, w) of ") + goal, true);
-  s.obs.add("goal.rot_diff", 4, rot, true);
+  add_object_obs(s.obs, "object", what);
+  add_goal_obs(s.obs, "goal", goal, rot);
   s.obs.add(n1, 3, p1);
   s.obs.add(n2, 3, p2);
   s.agents = agents_per_hand(s.obs, s.act);

@@ -151,11 +151,8 @@ TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
       "block_stack", "Stack Block", "ShadowHandBlockStack", HumanAge{22, 28, "22-28", false},
       Difficulty::kMedium, "Stacks at least 2 blocks in any trial.", 250);
-  s.obs.add("block1.pose", 7, "block 1 (the left hand's, the top one) position (m) and orientation (x, y, z, w)");
-  s.obs.add("block1.linvel", 3, "block 1 linear velocity (m/s), world frame");
-  s.obs.add("block1.angvel", 3, "block 1 angular velocity (rad/s) x 0.2, world frame");
-  s.obs.add("goal.pose", 7, "block 1's target on top of block 2's target: position and orientation (x, y, z, w)", true);
-  s.obs.add("goal.rot_diff", 4, "block 1 orientation times the goal's conjugate, (x, y, z, w)", true);
+  add_object_obs(s.obs, "block1", "block 1 (the left hand's, the top one)");
+  add_goal_obs(s.obs, "goal", "block 1's target, on top of block 2's target");
   s.obs.add("block1.pos", 3, "block 1 position (m), as the paper's table repeats it");
   s.obs.add("block2.pos", 3, "block 2 (the right hand's, the bottom one) position (m)");
   s.agents = agents_per_hand(s.obs, s.act);

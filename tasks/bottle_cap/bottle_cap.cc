@@ -186,9 +186,7 @@ TaskSpec make_spec() {
       "bottle_cap", "Open Bottle Cap", "ShadowHandBottleCap", HumanAge{30, 30, "30", false},
       Difficulty::kMedium, "Uses hands to twist things, like turning doorknobs or unscrewing lids.",
       125);
-  s.obs.add("bottle.pose", 7, "bottle position (m) and orientation (x, y, z, w), world frame");
-  s.obs.add("bottle.linvel", 3, "bottle linear velocity (m/s), world frame");
-  s.obs.add("bottle.angvel", 3, "bottle angular velocity (rad/s) x 0.2, world frame");
+  add_object_obs(s.obs, "bottle", "the bottle");
   s.obs.add("cap.pos", 3, "the cap's centre (m), world frame");
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms = {

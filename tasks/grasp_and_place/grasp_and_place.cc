@@ -170,9 +170,7 @@ TaskSpec make_spec() {
       "grasp_and_place", "Pull a Ball into Bucket (Grasp & Place)", "ShadowHandGraspAndPlace",
       HumanAge{22, 28, "22-28", false}, Difficulty::kMedium,
       "Places 10 pellets in a bottle in 60 seconds or less, one pellet at a time.", 500);
-  s.obs.add("bucket.pose", 7, "bucket position (m) and orientation (x, y, z, w), world frame");
-  s.obs.add("bucket.linvel", 3, "bucket linear velocity (m/s), world frame");
-  s.obs.add("bucket.angvel", 3, "bucket angular velocity (rad/s) x 0.2, world frame");
+  add_object_obs(s.obs, "bucket", "the bucket");
   s.obs.add("bucket_link.pos", 3, "the bucket link's position (m): the bucket body's centre");
   s.obs.add("bucket_link.quat", 4, "the bucket link's orientation (x, y, z, w)");
   s.obs.add("object.pos", 3, "the object's position (m)");

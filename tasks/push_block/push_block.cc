@@ -140,9 +140,7 @@ TaskSpec make_spec() {
       "push_block", "Push Block", "ShadowHandPushBlock", HumanAge{5, 6, "5-6", false},
       Difficulty::kEasy,
       "Extends one or both arms forward and touches the block with either hand.", 125);
-  s.obs.add("block1.pose", 7, "block 1 (the left hand's) position (m) and orientation (x, y, z, w)");
-  s.obs.add("block1.linvel", 3, "block 1 linear velocity (m/s), world frame");
-  s.obs.add("block1.angvel", 3, "block 1 angular velocity (rad/s) x 0.2, world frame");
+  add_object_obs(s.obs, "block1", "block 1 (the left hand's)");
   s.obs.add("block1.pos", 3, "block 1 position (m), as the paper's table repeats it");
   s.obs.add("block2.pos", 3, "block 2 (the right hand's) position (m)");
   s.agents = agents_per_hand(s.obs, s.act);

@@ -198,11 +198,8 @@ TaskSpec make_spec() {
       "Refines the ability to move individual fingers and manipulate objects.", 600);
   for (int i = 1; i <= 2; ++i) {
     const std::string o = "object" + std::to_string(i), g = "goal" + std::to_string(i);
-    s.obs.add(o + ".pose", 7, "cube position (m) and orientation (x, y, z, w), world frame");
-    s.obs.add(o + ".linvel", 3, "cube linear velocity (m/s), world frame");
-    s.obs.add(o + ".angvel", 3, "cube angular velocity (rad/s) x 0.2, world frame");
-    s.obs.add(g + ".pose", 7, "goal position and orientation (x, y, z, w)", true);
-    s.obs.add(g + ".rot_diff", 4, "cube orientation times the goal's conjugate, (x, y, z, w)", true);
+    add_object_obs(s.obs, o, "cube " + std::to_string(i));
+    add_goal_obs(s.obs, g, "cube " + std::to_string(i) + "'s goal");
   }
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms = {
