@@ -45,6 +45,23 @@ CommonParams load_common(const YamlView& root, const std::string& file) {
   return c;
 }
 
+BlockPair load_block_pair(const YamlView& b, const char* place_key) {
+  b.allow_keys({"edge", "density", "friction", "rpy", "block1", "block2"});
+  BlockPair p;
+  p.edge = read_number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
+  p.density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
+  p.friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
+  p.rpy = read_vec3(b.child("rpy"));
+  const char* names[2] = {"block1", "block2"};
+  for (int i = 0; i < 2; ++i) {
+    auto v = b.child(names[i]);
+    v.allow_keys({"start", place_key});
+    p.start[i] = read_vec3(v.child("start"));
+    p.place[i] = read_vec3(v.child(place_key));
+  }
+  return p;
+}
+
 TableParams load_table(const YamlView& v) {
   v.allow_keys({"pos", "half_size", "friction"});
   TableParams t;

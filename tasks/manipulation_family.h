@@ -39,6 +39,15 @@ struct TableParams {
 };
 TableParams load_table(const YamlView& v);
 
+// Two cubes: `blocks: {edge, density, friction, rpy, block1: {start, <place_key>}, block2: ...}`,
+// `place` being each block's goal or target position.
+struct BlockPair {
+  double edge = 0.05, density = 500, friction = 1;  // m, kg/m^3, sliding friction
+  sim::Vec3 rpy{};                                  // start orientation of both blocks
+  sim::Vec3 start[2]{}, place[2]{};                 // block1, block2
+};
+BlockPair load_block_pair(const YamlView& blocks, const char* place_key);
+
 // Geometry: the spec's hand slices (free bases), then the task adds its tail.
 TaskSpec spec_with_hands(std::string id, std::string paper_name, std::string original_name,
                          HumanAge age, Difficulty difficulty, std::string skill,

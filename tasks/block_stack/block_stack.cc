@@ -17,9 +17,7 @@ namespace {
 struct StackParams {
   manip::CommonParams common;
   manip::TableParams table;
-  double edge = 0.05, density = 100, friction = 0.25;
-  sim::Vec3 rpy{};
-  sim::Vec3 start[2]{}, target[2]{};  // block1 (left hand's, on top), block2 (right hand's)
+  manip::BlockPair blocks;  // block1 (left hand's, on top), block2 (right hand's); place = targets
   // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target) [+ stack bonus]
   double offset = 1.5, goal_scale = 2, goal_offset = 0.24;
   double goal_gate = 0;               // > 0: the goal term only while both hands' sums < it
@@ -35,21 +33,7 @@ StackParams load(const std::string& file) {
   StackParams p;
   p.common = manip::load_common(root, file);
   p.table = manip::load_table(root.child("table"));
-  {
-    auto b = root.child("blocks");
-    b.allow_keys({"edge", "density", "friction", "rpy", "block1", "block2"});
-    p.edge = read_number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
-    p.density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
-    p.rpy = read_vec3(b.child("rpy"));
-    const char* names[2] = {"block1", "block2"};
-    for (int i = 0; i < 2; ++i) {
-      auto v = b.child(names[i]);
-      v.allow_keys({"start", "target"});
-      p.start[i] = read_vec3(v.child("start"));
-      p.target[i] = read_vec3(v.child("target"));
-    }
-  }
+  p.blocks = manip::load_block_pair(root.child("blocks"), "target");
   {
     auto r = root.child("reward");
     r.allow_keys({"offset", "goal_scale", "goal_offset", "goal_gate", "stack_bonus_scale",
@@ -79,14 +63,14 @@ class BlockStack : public manip::ManipTask {
                           const sim::PhysicsOptions& physics) const override {
     sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
     sb.add_object(manip::table("table", p_.table));
-    const sim::Quat q = manip::quat_rpy(p_.rpy);
+    const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
     for (int i = 0; i < 2; ++i) {
-      auto o = manip::cube("block" + std::to_string(i + 1), p_.edge, p_.density, p_.friction,
-                           p_.start[i], q);
+      auto o = manip::cube("block" + std::to_string(i + 1), p_.blocks.edge, p_.blocks.density, p_.blocks.friction,
+                           p_.blocks.start[i], q);
       if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
       sb.add_object(o);
     }
-    sb.add_object(manip::marker_box("goal", p_.edge / 2, p_.target[0], q, {0.85, 0.35, 0.25, 0.3}));
+    sb.add_object(manip::marker_box("goal", p_.blocks.edge / 2, p_.blocks.place[0], q, {0.85, 0.35, 0.25, 0.3}));
     return sb;
   }
 
@@ -107,8 +91,8 @@ class BlockStack : public manip::ManipTask {
   void reset(TaskSlot& t) const override {
     // blocks at their start poses (the simulation's reset); the goal is block 1's target, in
     // the blocks' start orientation
-    const sim::Quat q = manip::quat_rpy(p_.rpy);
-    for (int k = 0; k < 3; ++k) t.task->goal[0][k] = p_.target[0][k];
+    const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
+    for (int k = 0; k < 3; ++k) t.task->goal[0][k] = p_.blocks.place[0][k];
     for (int k = 0; k < 4; ++k) t.task->goal[0][3 + k] = q[k];
   }
 
@@ -118,14 +102,14 @@ class BlockStack : public manip::ManipTask {
     const double* b2 = v.xpos + 3 * body_[1];
     const double d_left = tip_distance_sum(hands_[1], v, b1);
     const double d_right = tip_distance_sum(hands_[0], v, b2);
-    const double e1 = math::dist3(b1, p_.target[0].data());
-    const double e2 = math::dist3(b2, p_.target[1].data());
+    const double e1 = math::dist3(b1, p_.blocks.place[0].data());
+    const double e2 = math::dist3(b2, p_.blocks.place[1].data());
     terms[t_offset_] = p_.offset;
     terms[t_left_] = -d_left;
     terms[t_right_] = -d_right;
     const bool gate_open = p_.goal_gate <= 0 || (d_left < p_.goal_gate && d_right < p_.goal_gate);
     terms[t_goal_] = gate_open ? p_.goal_scale * (p_.goal_offset - (e1 + e2)) : 0.0;
-    const double dz = std::abs(p_.target[0][2] - b1[2]);
+    const double dz = std::abs(p_.blocks.place[0][2] - b1[2]);
     const bool placed = e1 < p_.stack_tolerance && e2 < p_.stack_tolerance;
     if (placed) terms[t_stack_] = p_.stack_bonus_scale * (0.05 - dz);
     if (placed && dz < p_.height_tolerance) t.task->success = true;

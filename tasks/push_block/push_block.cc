@@ -17,9 +17,7 @@ namespace {
 struct PushParams {
   manip::CommonParams common;
   manip::TableParams table;
-  double edge = 0.05, density = 500, friction = 1;
-  sim::Vec3 rpy{};                        // start orientation of both blocks
-  sim::Vec3 start[2]{}, goal[2]{};        // block1 (left hand's), block2 (right hand's)
+  manip::BlockPair blocks;  // block1 (left hand's), block2 (right hand's); place = goals
   // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target)
   double offset = 2, goal_scale = 5, goal_offset = 0.8;
   double success_tolerance = 0.1;         // each block this close to its goal
@@ -32,21 +30,7 @@ PushParams load(const std::string& file) {
   PushParams p;
   p.common = manip::load_common(root, file);
   p.table = manip::load_table(root.child("table"));
-  {
-    auto b = root.child("blocks");
-    b.allow_keys({"edge", "density", "friction", "rpy", "block1", "block2"});
-    p.edge = read_number(b, "edge", 0.01, 0.2, "an edge in [0.01, 0.2] m");
-    p.density = read_number(b, "density", 1, 20000, "a density in [1, 20000] kg/m^3");
-    p.friction = read_number(b, "friction", 0.01, 10, "a sliding friction in [0.01, 10]");
-    p.rpy = read_vec3(b.child("rpy"));
-    const char* names[2] = {"block1", "block2"};
-    for (int i = 0; i < 2; ++i) {
-      auto v = b.child(names[i]);
-      v.allow_keys({"start", "goal"});
-      p.start[i] = read_vec3(v.child("start"));
-      p.goal[i] = read_vec3(v.child("goal"));
-    }
-  }
+  p.blocks = manip::load_block_pair(root.child("blocks"), "goal");
   {
     auto r = root.child("reward");
     r.allow_keys({"offset", "goal_scale", "goal_offset", "success_tolerance"});
@@ -72,13 +56,14 @@ class PushBlock : public manip::ManipTask {
                           const sim::PhysicsOptions& physics) const override {
     sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
     sb.add_object(manip::table("table", p_.table));
-    const sim::Quat q = manip::quat_rpy(p_.rpy);
+    const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
     for (int i = 0; i < 2; ++i) {
       const std::string n = std::to_string(i + 1);
-      auto o = manip::cube("block" + n, p_.edge, p_.density, p_.friction, p_.start[i], q);
+      const auto& b = p_.blocks;
+      auto o = manip::cube("block" + n, b.edge, b.density, b.friction, b.start[i], q);
       if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
       sb.add_object(o);
-      sb.add_object(manip::marker_box("goal" + n, p_.edge / 2, p_.goal[i], q,
+      sb.add_object(manip::marker_box("goal" + n, p_.blocks.edge / 2, p_.blocks.place[i], q,
                                       {o.rgba[0], o.rgba[1], o.rgba[2], 0.3}));
     }
     return sb;
@@ -100,8 +85,8 @@ class PushBlock : public manip::ManipTask {
   void reset(TaskSlot& t) const override {
     // blocks back at their start poses (the simulation's reset); goals fixed
     for (int i = 0; i < 2; ++i) {
-      for (int k = 0; k < 3; ++k) t.task->goal[i][k] = p_.goal[i][k];
-      const sim::Quat q = manip::quat_rpy(p_.rpy);
+      for (int k = 0; k < 3; ++k) t.task->goal[i][k] = p_.blocks.place[i][k];
+      const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
       for (int k = 0; k < 4; ++k) t.task->goal[i][3 + k] = q[k];
     }
   }
@@ -112,7 +97,8 @@ class PushBlock : public manip::ManipTask {
     const double* b2 = v.xpos + 3 * body_[1];
     const double d_left = tip_distance_sum(hands_[1], v, b1);
     const double d_right = tip_distance_sum(hands_[0], v, b2);
-    const double e1 = math::dist3(b1, p_.goal[0].data()), e2 = math::dist3(b2, p_.goal[1].data());
+    const double e1 = math::dist3(b1, p_.blocks.place[0].data());
+    const double e2 = math::dist3(b2, p_.blocks.place[1].data());
     terms[t_offset_] = p_.offset;
     terms[t_left_] = -d_left;
     terms[t_right_] = -d_right;
