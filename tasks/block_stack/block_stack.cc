@@ -63,14 +63,15 @@ class BlockStack : public manip::ManipTask {
                           const sim::PhysicsOptions& physics) const override {
     sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
     sb.add_object(manip::table("table", p_.table));
-    const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
+    const auto& b = p_.blocks;
+    const sim::Quat q = manip::quat_rpy(b.rpy);
     for (int i = 0; i < 2; ++i) {
-      auto o = manip::cube("block" + std::to_string(i + 1), p_.blocks.edge, p_.blocks.density, p_.blocks.friction,
-                           p_.blocks.start[i], q);
+      auto o = manip::cube("block" + std::to_string(i + 1), b.edge, b.density, b.friction,
+                           b.start[i], q);
       if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
       sb.add_object(o);
     }
-    sb.add_object(manip::marker_box("goal", p_.blocks.edge / 2, p_.blocks.place[0], q, {0.85, 0.35, 0.25, 0.3}));
+    sb.add_object(manip::marker_box("goal", b.edge / 2, b.place[0], q, {0.85, 0.35, 0.25, 0.3}));
     return sb;
   }
 
