@@ -234,9 +234,7 @@ void CatchTask::reset(TaskSlot& t) const {
 }
 
 void CatchTask::apply_actions(const float* a, TaskSlot& t) const {
-  const int per_hand = spec().act.dim() / 2;
-  for (int h = 0; h < 2; ++h)
-    apply_hand_actions(hands_[h], a + h * per_hand, t.state.ctrl, t.state.base_wrench);
+  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
 }
 
 void CatchTask::goal_error(const TaskSlot& t, int i, double* d, double* theta) const {
@@ -285,11 +283,7 @@ bool CatchTask::evaluate(TaskSlot& t, double* terms) const {
 
 void CatchTask::observe(const TaskSlot& t, float* obs) const {
   const auto& v = t.state;
-  const int per_hand = spec().act.dim() / 2;
-  const int hand_obs = spec().free_base ? kHandObsFree : kHandObsFixed;
-  observe_hand(hands_[0], v, t.task->action.data(), obs);
-  observe_hand(hands_[1], v, t.task->action.data() + per_hand, obs + hand_obs);
-  float* o = obs + 2 * hand_obs;
+  float* o = observe_two_hands(hands_, v, t.task->action.data(), obs);
   for (int i = 0; i < nobj_; ++i) {
     const int b = obj_[i].body;
     observe_object(v, b, obj_[i].root_tree, o);

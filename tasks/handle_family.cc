@@ -356,9 +356,7 @@ void HandleTask::reset(TaskSlot& t) const {
 }
 
 void HandleTask::apply_actions(const float* a, TaskSlot& t) const {
-  const int per_hand = spec().act.dim() / 2;
-  for (int h = 0; h < 2; ++h)
-    apply_hand_actions(hands_[h], a + h * per_hand, t.state.ctrl, t.state.base_wrench);
+  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
 }
 
 void HandleTask::handle_point(const sim::SlotView& v, int h, double* out) const {
@@ -415,10 +413,7 @@ bool HandleTask::evaluate(TaskSlot& t, double* terms) const {
 
 void HandleTask::observe(const TaskSlot& t, float* obs) const {
   const auto& v = t.state;
-  const int per_hand = spec().act.dim() / 2;
-  observe_hand(hands_[0], v, t.task->action.data(), obs);
-  observe_hand(hands_[1], v, t.task->action.data() + per_hand, obs + kHandObsFree);
-  float* o = obs + 2 * kHandObsFree;
+  float* o = observe_two_hands(hands_, v, t.task->action.data(), obs);
   observe_object(v, body_, root_tree_, o);
   observe_goal(t.task->goal[0].data(), v.xquat + 4 * body_, o + 13);
   o += 24;

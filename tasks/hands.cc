@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "tasks/math.h"
+#include "tasks/spec.h"
 
 namespace bidex::tasks {
 
@@ -79,6 +80,24 @@ void apply_hand_actions(const HandRig& r, const float* a, double* ctrl, double* 
       w[3 + k] = a[na + 3 + k] * r.torque_max;
     }
   }
+}
+
+namespace {
+int hand_actions(const HandRig& r) { return r.free_base ? 26 : 20; }
+int hand_obs(const HandRig& r) { return r.free_base ? kHandObsFree : kHandObsFixed; }
+}  // namespace
+
+void apply_two_hand_actions(const HandRig (&hands)[2], const float* a, double* ctrl,
+                            double* wrench) {
+  apply_hand_actions(hands[0], a, ctrl, wrench);
+  apply_hand_actions(hands[1], a + hand_actions(hands[0]), ctrl, wrench);
+}
+
+float* observe_two_hands(const HandRig (&hands)[2], const sim::SlotView& v, const float* actions,
+                         float* obs) {
+  observe_hand(hands[0], v, actions, obs);
+  observe_hand(hands[1], v, actions + hand_actions(hands[0]), obs + hand_obs(hands[0]));
+  return obs + hand_obs(hands[0]) + hand_obs(hands[1]);
 }
 
 void body_velocity(const sim::SlotView& v, int body, int root_tree, double* lin, double* ang) {

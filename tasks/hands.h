@@ -57,6 +57,13 @@ double tip_distance_sum(const HandRig& rig, const sim::SlotView& v, const double
 // torque into the hand's 6 values of the base_wrench row.
 void apply_hand_actions(const HandRig& rig, const float* a, double* ctrl, double* wrench);
 
+// Both hands' actions, the right hand's slice first (20 or 26 values each, by the base).
+void apply_two_hand_actions(const HandRig (&hands)[2], const float* a, double* ctrl,
+                            double* wrench);
+// Both hand blocks of the observation (right, then left); returns where the task's tail starts.
+float* observe_two_hands(const HandRig (&hands)[2], const sim::SlotView& v, const float* actions,
+                         float* obs);
+
 // The hand block of the observation (187 values for a fixed base, 199 for a free one); the
 // layout is tasks::add_hand_obs.
 void observe_hand(const HandRig& rig, const sim::SlotView& v, const float* actions, float* out);

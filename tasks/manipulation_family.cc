@@ -179,16 +179,11 @@ void ManipTask::bind_hands(const sim::SimModel& model) {
 }
 
 void ManipTask::apply_actions(const float* a, TaskSlot& t) const {
-  const int per_hand = spec().act.dim() / 2;
-  for (int h = 0; h < 2; ++h)
-    apply_hand_actions(hands_[h], a + h * per_hand, t.state.ctrl, t.state.base_wrench);
+  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
 }
 
 float* ManipTask::observe_hands(const TaskSlot& t, float* obs) const {
-  const int per_hand = spec().act.dim() / 2;
-  observe_hand(hands_[0], t.state, t.task->action.data(), obs);
-  observe_hand(hands_[1], t.state, t.task->action.data() + per_hand, obs + kHandObsFree);
-  return obs + 2 * kHandObsFree;
+  return observe_two_hands(hands_, t.state, t.task->action.data(), obs);
 }
 
 double ManipTask::action_sq(const TaskSlot& t) const {

@@ -626,9 +626,7 @@ void TableTask::reset(TaskSlot& t) const {
 }
 
 void TableTask::apply_actions(const float* a, TaskSlot& t) const {
-  const int per_hand = spec().act.dim() / 2;
-  for (int h = 0; h < 2; ++h)
-    apply_hand_actions(hands_[h], a + h * per_hand, t.state.ctrl, t.state.base_wrench);
+  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
 }
 
 void TableTask::points(const TaskSlot& t, double* right, double* left) const {
@@ -808,10 +806,7 @@ bool TableTask::evaluate(TaskSlot& t, double* terms) const {
 
 void TableTask::observe(const TaskSlot& t, float* obs) const {
   const auto& v = t.state;
-  const int per_hand = spec().act.dim() / 2;
-  observe_hand(hands_[0], v, t.task->action.data(), obs);
-  observe_hand(hands_[1], v, t.task->action.data() + per_hand, obs + kHandObsFree);
-  float* o = obs + 2 * kHandObsFree;
+  float* o = observe_two_hands(hands_, v, t.task->action.data(), obs);
   observe_object(v, obs_body_, tree_, o);
   double pose[7], q[4];
   goal(t, pose, q);
