@@ -69,6 +69,8 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   const int64_t mb = B / c_.minibatches;
   UpdateStats st;
   int n = 0;
+  // policy loss, value loss, entropy, clip fraction: summed on the device, read once at the end
+  auto sums = torch::zeros({4}, torch::TensorOptions().dtype(torch::kFloat64).device(nobs.device()));
   for (int epoch = 0; epoch < c_.epochs; ++epoch) {
     auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(nobs.device()));
     for (int k = 0; k < c_.minibatches; ++k) {
@@ -109,21 +111,20 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
       opt_->step();
       {
         torch::NoGradGuard ng;
-        st.policy_loss += policy_loss.item<double>();
-        st.value_loss += value_loss.item<double>();
-        st.entropy += entropy.item<double>();
-        st.clip_fraction += ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean().item<double>();
+        auto clipped = ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean();
+        sums += torch::stack({policy_loss, value_loss, entropy, clipped}).to(torch::kFloat64);
       }
       st.kl += kl;
       ++n;
     }
   }
   if (n > 0) {
-    st.policy_loss /= n;
-    st.value_loss /= n;
-    st.entropy /= n;
+    auto m = (sums / n).to(torch::kCPU);
+    st.policy_loss = m[0].item<double>();
+    st.value_loss = m[1].item<double>();
+    st.entropy = m[2].item<double>();
+    st.clip_fraction = m[3].item<double>();
     st.kl /= n;
-    st.clip_fraction /= n;
   }
   st.lr = lr_;
   return st;

@@ -299,16 +299,14 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
         int k = 0;
         auto dev = upload(true, &k);
         obs = dev.narrow(0, 0, int64_t(N) * D).view({N, D});
-        auto rew = dev.narrow(0, int64_t(N) * D, N).clone();
-        auto done = dev.narrow(0, int64_t(N) * D + N, N);
-        if (k > 0) {
+        auto rew = ro.rewards[t];
+        rew.copy_(dev.narrow(0, int64_t(N) * D, N));
+        ro.dones[t].copy_(dev.narrow(0, int64_t(N) * D + N, N));
+        if (k > 0) {  // time limits: bootstrap from the critic's value of the final observation
           auto ids = dev.narrow(0, int64_t(N) * D + 2 * N, k).to(torch::kLong);
           auto fin = dev.narrow(0, int64_t(N) * D + 2 * N + k, int64_t(k) * D).view({k, D});
-          auto fv = s.model->value(s.model->normalize_obs(fin));
-          rew.index_add_(0, ids, gamma * fv);
+          rew.index_add_(0, ids, gamma * s.model->value(s.model->normalize_obs(fin)));
         }
-        ro.rewards[t].copy_(rew);
-        ro.dones[t].copy_(done);
         if (g_stop) break;
       }
     }
