@@ -8,6 +8,7 @@
 #include "bench/physics_study.h"
 #include "bench/sim_bench.h"
 #include "bench/task_bench.h"
+#include "core/error.h"
 #include "core/files.h"
 #include "sim/hand_spec.h"
 
@@ -105,9 +106,15 @@ void add_bench_command(CLI::App& app) {
   task->add_option("--seed", tc->seed, "Seed")->capture_default_str();
   task->add_option("--physics", tc->physics_file, "Physics YAML (default: configs/sim/physics.yaml)");
   task->add_flag("!--no-profile", tc->profile, "Skip the profiled run");
+  task->add_option("--config", tc->task_config, "Task YAML (one --task only; default: its own)");
   task->add_option("--out,-o", *task_out, "Write the JSON here (atomically) instead of stdout");
   task->footer("Example:\n  bidex bench task --task catch_underarm --slots 64 --seconds 1");
-  task->callback([tc, task_out] { emit(bench::run_task_bench(*tc), *task_out, command_line()); });
+  task->callback([tc, task_out] {
+    if (!tc->task_config.empty() && tc->tasks.size() != 1)
+      throw Error("bench task: --config takes one --task, got " +
+                  std::to_string(tc->tasks.size()));
+    emit(bench::run_task_bench(*tc), *task_out, command_line());
+  });
 
   // bench physics
   auto ps = std::make_shared<bench::PhysicsStudyConfig>();

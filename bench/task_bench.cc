@@ -114,9 +114,10 @@ json run_task_bench(const TaskBenchConfig& cfg) {
       eo.threads = cfg.threads;
       eo.seed = cfg.seed;
       eo.physics_file = cfg.physics_file;
-      tasks::TaskEnv env(tasks::make_task(id), eo);
+      tasks::TaskEnv env(tasks::make_task(id, cfg.task_config), eo);
       json r = measure(env, cfg, rng);
       r["task"] = env.spec().versioned_id();
+      r["task_config"] = env.task().config_file();
       r["substeps"] = env.model().physics().substeps;
       r["timestep"] = env.model().physics().timestep;
       r["bytes_per_slot"] = static_cast<double>(env.batch().bytes()) / n;

@@ -20,6 +20,7 @@ struct TaskBenchConfig {
   bool profile = true;                  // a second, profiled run per measurement
   uint64_t seed = 1;
   std::string physics_file;             // empty: default
+  std::string task_config;              // one task only: its YAML (empty: the task's default)
   bool progress = true;
 };
 
