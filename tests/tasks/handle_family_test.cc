@@ -395,6 +395,34 @@ TEST_CASE("door oracles: the leaves driven to their goal angle fire success",
   }
 }
 
+TEST_CASE("door_open_outward: both hands pushed towards the door open it to success",
+          "[tasks][handle][oracle]") {
+  // joint targets mid-range, both bases pushed along -x (towards the door) at action 0.2:
+  // the leaves swing out to their stop and the episode succeeds, within 150 steps (2.5 s)
+  auto env = make_env("door_open_outward", 1, 1, 1);
+  env->reset();
+  const auto& act = env->spec().act;
+  std::vector<float> a(act.dim(), 0.f);
+  a[act.at("right.base_translation").start] = -0.2f;
+  a[act.at("left.base_translation").start] = -0.2f;
+  const auto& task = handle_task(*env);
+  bool success = false;
+  int steps = 0;
+  double qr = 0, ql = 0;
+  for (; steps < 150 && !success; ++steps) {
+    env->step(a);
+    REQUIRE_FALSE(env->terminated[0]);
+    success = env->success[0];
+    const mjData* d = env->batch().data(0);
+    qr = d->qpos[task.hinge_qpos(0)];
+    ql = d->qpos[task.hinge_qpos(1)];
+  }
+  INFO("steps " << steps << ", hinges " << qr << ", " << ql);
+  CHECK(success);
+  CHECK(qr > 1.0);
+  CHECK(ql > 1.0);
+}
+
 // ---- resets -------------------------------------------------------------------------------
 
 TEST_CASE("handle tasks: reset states do not terminate and are the start states",
