@@ -13,28 +13,15 @@
 #include "core/files.h"
 #include "tests/fixture.h"
 #include "tests/paper_table.h"
+#include "tests/run_command.h"
 
 using bidex::test::TempDir;
 
 namespace {
 
-struct Result {
-  int rc = -1;
-  std::string out;  // stdout and stderr together
-};
+using bidex::test::CommandResult;
+using bidex::test::run_command;
 
-// Runs a shell command, capturing its output and exit status.
-Result run(const std::string& cmd) {
-  Result r;
-  std::FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  REQUIRE(p != nullptr);
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  int status = ::pclose(p);
-  r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 std::string quote(const std::string& s) { return "'" + s + "'"; }
 
@@ -76,7 +63,7 @@ void check_paper_hand(const mjModel* m, const std::string& prefix) {
 TEST_CASE("bidex model --hand both writes MJCF that MuJoCo loads from disk", "[apps][model]") {
   TempDir dir;
   std::string xml = dir.file("hands.xml");
-  Result r = run(bidex_cmd("model --hand both --out " + quote(xml)));
+  CommandResult r = run_command(bidex_cmd("model --hand both --out " + quote(xml)));
   INFO(r.out);
   REQUIRE(r.rc == 0);
   CHECK(r.out.find("wrote " + xml) != std::string::npos);
@@ -108,7 +95,7 @@ TEST_CASE("bidex model --hand both writes MJCF that MuJoCo loads from disk", "[a
     return;
   }
   std::string mjb = dir.file("hands.mjb");
-  Result c = run("mujoco-compile " + quote(xml) + " " + quote(mjb));
+  CommandResult c = run_command("mujoco-compile " + quote(xml) + " " + quote(mjb));
   INFO("mujoco-compile: " << c.out);
   CHECK(c.rc == 0);
   CHECK(c.out.find("Done") != std::string::npos);
@@ -135,7 +122,7 @@ TEST_CASE("bidex model writes one hand, fixed or free", "[apps][model]") {
                  Case{"right", "free", "rh_", 28}}) {
     INFO(c.hand << " " << c.base);
     std::string xml = dir.file(std::string(c.hand) + "_" + c.base + ".xml");
-    Result r = run(bidex_cmd(std::string("model --hand ") + c.hand + " --base " + c.base +
+    CommandResult r = run_command(bidex_cmd(std::string("model --hand ") + c.hand + " --base " + c.base +
                              " --out " + quote(xml)));
     INFO(r.out);
     REQUIRE(r.rc == 0);
@@ -161,7 +148,7 @@ TEST_CASE("bidex model reports bad input with the file, key and reason", "[apps]
                                      "    geoms:\n      - {name: ffknuckle");
     bidex::write_file_atomic(spec, text);
     std::string xml = dir.file("out.xml");
-    Result r = run(bidex_cmd("model --spec " + quote(spec) + " --out " + quote(xml)));
+    CommandResult r = run_command(bidex_cmd("model --spec " + quote(spec) + " --out " + quote(xml)));
     INFO(r.out);
     CHECK(r.rc == 2);
     CHECK(r.out.find(spec) != std::string::npos);
@@ -173,13 +160,13 @@ TEST_CASE("bidex model reports bad input with the file, key and reason", "[apps]
     std::string blocker = dir.file("file");
     bidex::write_file_atomic(blocker, "x");
     std::string xml = blocker + "/sub/out.xml";
-    Result r = run(bidex_cmd("model --out " + quote(xml)));
+    CommandResult r = run_command(bidex_cmd("model --out " + quote(xml)));
     INFO(r.out);
     CHECK(r.rc == 2);
     CHECK(r.out.find(xml) != std::string::npos);
   }
   SECTION("an unknown hand name is refused by the command line") {
-    Result r = run(bidex_cmd("model --hand middle --out " + quote(dir.file("x.xml"))));
+    CommandResult r = run_command(bidex_cmd("model --hand middle --out " + quote(dir.file("x.xml"))));
     INFO(r.out);
     CHECK(r.rc != 0);
     CHECK(r.out.find("middle") != std::string::npos);

@@ -17,28 +17,10 @@
 
 #include "core/files.h"
 #include "rl/config.h"
+#include "tests/run_command.h"
 #include "tests/tasks/task_fixture.h"
 
 namespace bidex::test {
-
-struct RunResult {
-  int rc = -1;
-  std::string out;  // stdout and stderr together
-};
-
-inline RunResult bidex_run(const std::string& args) {
-  RunResult r;
-  std::string cmd = "'";
-  cmd.append(BIDEX_BINARY).append("' ").append(args).append(" 2>&1");
-  std::FILE* p = ::popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int status = ::pclose(p);
-  r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
 
 inline bool file_exists(const std::string& path) {
   struct stat st;

@@ -7,38 +7,15 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include "tests/run_command.h"
 #include "tests/tasks/task_fixture.h"
 
 using namespace bidex;
 using namespace bidex::test;
 
-namespace {
-
-struct Result {
-  int rc = -1;
-  std::string out;  // stdout and stderr together
-};
-
-Result bidex_run(const std::string& args) {
-  Result r;
-  // built with append: GCC 12 -O3 warns (-Werror=restrict) on "'" + std::string(...)
-  std::string cmd = "'";
-  cmd.append(BIDEX_BINARY).append("' ").append(args).append(" 2>&1");
-  std::FILE* p = ::popen(cmd.c_str(), "r");
-  REQUIRE(p != nullptr);
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int status = ::pclose(p);
-  r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
-
-}  // namespace
-
 TEST_CASE("bidex info --task catch_underarm --json prints the spec with every slice",
           "[tasks][apps]") {
-  Result r = bidex_run("info --task catch_underarm --json");
+  CommandResult r = bidex_run("info --task catch_underarm --json");
   INFO(r.out);
   REQUIRE(r.rc == 0);
   const auto j = nlohmann::json::parse(r.out);
@@ -74,7 +51,7 @@ TEST_CASE("bidex info --task catch_underarm --json prints the spec with every sl
 }
 
 TEST_CASE("bidex info --task prints the layout as text", "[tasks][apps]") {
-  Result r = bidex_run("info --task hand_over");
+  CommandResult r = bidex_run("info --task hand_over");
   INFO(r.out);
   REQUIRE(r.rc == 0);
   CHECK(contains(r.out, "hand_over-v1"));
@@ -87,7 +64,7 @@ TEST_CASE("bidex info --task prints the layout as text", "[tasks][apps]") {
 
 TEST_CASE("bidex play --task hand_over --policy zero prints every reward term",
           "[tasks][apps]") {
-  Result r = bidex_run("play --task hand_over --policy zero --steps 20 --slots 2");
+  CommandResult r = bidex_run("play --task hand_over --policy zero --steps 20 --slots 2");
   INFO(r.out);
   REQUIRE(r.rc == 0);
   for (auto& t : tasks::find_task("hand_over").spec().reward_terms) CHECK(contains(r.out, t.name));
@@ -99,7 +76,7 @@ TEST_CASE("bidex play --task hand_over --policy zero prints every reward term",
 TEST_CASE("bidex play writes its statistics as JSON", "[tasks][apps]") {
   TaskTempDir dir;
   const std::string out = dir.file("play.json");
-  Result r = bidex_run("play --task two_catch_underarm --policy random --steps 10 --slots 3 --json '" +
+  CommandResult r = bidex_run("play --task two_catch_underarm --policy random --steps 10 --slots 3 --json '" +
                        out + "'");
   INFO(r.out);
   REQUIRE(r.rc == 0);
@@ -115,19 +92,19 @@ TEST_CASE("bidex play writes its statistics as JSON", "[tasks][apps]") {
 
 TEST_CASE("bidex play with an unknown task or a bad YAML exits 2 naming the problem",
           "[tasks][apps][config]") {
-  Result r = bidex_run("play --task nope --steps 1");
+  CommandResult r = bidex_run("play --task nope --steps 1");
   INFO(r.out);
   CHECK(r.rc == 2);
   CHECK(contains(r.out, "'nope'"));
   CHECK(contains(r.out, "catch_underarm"));  // the known ids are listed
-  Result info = bidex_run("info --task nope");
+  CommandResult info = bidex_run("info --task nope");
   CHECK(info.rc == 2);
   CHECK(contains(info.out, "'nope'"));
 
   TaskTempDir dir;
   const std::string yaml = dir.write(
       "bad.yaml", set_value(default_yaml("catch_underarm"), "object_position_noise", "-1"));
-  Result bad = bidex_run("play --task catch_underarm --steps 1 --config '" + yaml + "'");
+  CommandResult bad = bidex_run("play --task catch_underarm --steps 1 --config '" + yaml + "'");
   INFO(bad.out);
   CHECK(bad.rc == 2);
   CHECK(contains(bad.out, yaml));
