@@ -581,57 +581,25 @@ TEST_CASE("handle tasks: bad YAML is a ConfigError naming file, key, expected, a
 }
 
 // ---- soak ---------------------------------------------------------------------------------
-
-namespace {
-// 1,024 slots x 98 steps = 100,352 random-action slot-steps; episodes shortened to 60 steps
-// (the defaults are 250 and 500) so that every slot also resets inside step.
-void soak(const std::string& id) {
-  TaskTempDir dir;
-  const auto file = edited_yaml(dir, id, {{"episode_length", "60"}});
-  constexpr int kSlots = 1024, kSteps = 98;
-  auto env = make_env(id, kSlots, 2024, 0, file);
-  env->reset();
-  std::mt19937_64 rng(77);
-  std::vector<float> a(static_cast<size_t>(kSlots) * env->act_dim());
-  int64_t faults = 0, episodes = 0, bad = 0;
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int step = 0; step < kSteps; ++step) {
-    random_actions(a, rng);
-    env->step(a);
-    auto st = env->take_stats();
-    faults += st.faults;
-    episodes += st.episodes;
-    for (float r : env->reward) bad += !std::isfinite(r);
-  }
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  WARN(id << ": " << kSlots * kSteps << " slot-steps in " << secs << " s, " << faults
-          << " faults, " << episodes << " episodes");
-  CHECK(faults == 0);
-  CHECK(env->batch().total_faults() == 0);
-  CHECK(bad == 0);
-  for (float x : env->obs) bad += !std::isfinite(x);
-  CHECK(bad == 0);
-  CHECK(episodes >= kSlots);
-}
-}  // namespace
-
+// tests/tasks/task_fixture.h soak_task, on episodes cut to 60 steps so that every slot resets
+// inside step
 TEST_CASE("soak: lift_underarm: 100k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
-  soak("lift_underarm");
+  soak_task("lift_underarm", 60);
 }
 TEST_CASE("soak: door_open_outward: 100k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
-  soak("door_open_outward");
+  soak_task("door_open_outward", 60);
 }
 TEST_CASE("soak: door_close_inward: 100k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
-  soak("door_close_inward");
+  soak_task("door_close_inward", 60);
 }
 TEST_CASE("soak: door_open_inward: 100k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
-  soak("door_open_inward");
+  soak_task("door_open_inward", 60);
 }
 TEST_CASE("soak: door_close_outward: 100k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
-  soak("door_close_outward");
+  soak_task("door_close_outward", 60);
 }

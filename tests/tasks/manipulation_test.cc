@@ -727,56 +727,20 @@ TEST_CASE("manipulation tasks: bad YAML is a ConfigError naming file, key, expec
 }
 
 // ---- soak ------------------------------------------------------------------------------------
-
-namespace {
-// Tasks with episodes longer than 98 steps run with 75-step episodes here, so that every slot
-// resets inside step at least once (the time limit is the only YAML value changed).
-void soak(const std::string& id) {
-  constexpr int kSlots = 1024, kSteps = 98;
-  TaskTempDir dir;
-  std::string config;
-  if (tasks::find_task(id).spec().episode_length > kSteps)
-    config = edited_yaml(dir, id, {{"episode_length", "75"}});
-  auto env = make_env(id, kSlots, 2024, 0, config);
-  std::mt19937_64 rng(77);
-  std::vector<float> a(static_cast<size_t>(kSlots) * env->act_dim());
-  int64_t faults = 0, episodes = 0, terminated = 0, bad = 0;
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int step = 0; step < kSteps; ++step) {
-    random_actions(a, rng);
-    env->step(a);
-    auto st = env->take_stats();
-    faults += st.faults;
-    episodes += st.episodes;
-    terminated += st.terminated;
-    for (float r : env->reward) bad += !std::isfinite(r);
-  }
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("soak %s: %.1f s, %lld episodes (%lld terminated), %lld faults\n", id.c_str(), secs,
-              static_cast<long long>(episodes), static_cast<long long>(terminated),
-              static_cast<long long>(faults));
-  INFO(id << ": " << faults << " faults, " << episodes << " episodes");
-  CHECK(faults == 0);
-  CHECK(env->batch().total_faults() == 0);
-  CHECK(bad == 0);
-  for (float x : env->obs) bad += !std::isfinite(x);
-  CHECK(bad == 0);
-  CHECK(episodes >= kSlots);  // every slot ended an episode (time limit or task) and went on
-}
-}  // namespace
-
+// tests/tasks/task_fixture.h soak_task, on episodes cut to 75 steps so that every slot resets
+// inside step
 TEST_CASE("soak: bottle_cap: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
-  soak("bottle_cap");
+  soak_task("bottle_cap", 75);
 }
 TEST_CASE("soak: push_block: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
-  soak("push_block");
+  soak_task("push_block", 75);
 }
 TEST_CASE("soak: re_orientation: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
-  soak("re_orientation");
+  soak_task("re_orientation", 75);
 }
 TEST_CASE("soak: block_stack: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
-  soak("block_stack");
+  soak_task("block_stack", 75);
 }
 TEST_CASE("soak: grasp_and_place: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
-  soak("grasp_and_place");
+  soak_task("grasp_and_place", 75);
 }

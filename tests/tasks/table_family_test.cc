@@ -666,48 +666,20 @@ TEST_CASE("bad table family YAML files are ConfigErrors naming file, key, expect
 }
 
 // ---- soak ---------------------------------------------------------------------------------
-
-namespace {
-void table_soak(const std::string& id) {
-  // 60-step episodes (an edited YAML): within 98 steps every slot resets inside step and runs
-  // the start of a second episode, as in tests/tasks/soak_test.cc
-  constexpr int kSlots = 1024, kSteps = 98;
-  TaskTempDir dir;
-  auto env = make_env(id, kSlots, 2024, 0, edited_yaml(dir, id, {{"episode_length", "60"}}));
-  std::mt19937_64 rng(77);
-  std::vector<float> a(static_cast<size_t>(kSlots) * env->act_dim());
-  int64_t faults = 0, episodes = 0, bad = 0;
-  const auto t0 = std::chrono::steady_clock::now();
-  for (int step = 0; step < kSteps; ++step) {
-    random_actions(a, rng);
-    env->step(a);
-    auto st = env->take_stats();
-    faults += st.faults;
-    episodes += st.episodes;
-    for (float r : env->reward) bad += !std::isfinite(r);
-  }
-  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  WARN(id << ": " << kSlots * kSteps << " slot-steps in " << secs << " s, " << faults
-          << " faults, " << episodes << " episodes");
-  CHECK(faults == 0);
-  CHECK(env->batch().total_faults() == 0);
-  CHECK(bad == 0);
-  CHECK(episodes >= kSlots);
-}
-}  // namespace
-
+// tests/tasks/task_fixture.h soak_task, on episodes cut to 60 steps so that every slot resets
+// inside step
 TEST_CASE("soak: swing_cup: 100k random slot-steps without a fault", "[tasks][table][soak]") {
-  table_soak("swing_cup");
+  soak_task("swing_cup", 60);
 }
 TEST_CASE("soak: scissors: 100k random slot-steps without a fault", "[tasks][table][soak]") {
-  table_soak("scissors");
+  soak_task("scissors", 60);
 }
 TEST_CASE("soak: pen: 100k random slot-steps without a fault", "[tasks][table][soak]") {
-  table_soak("pen");
+  soak_task("pen", 60);
 }
 TEST_CASE("soak: switch: 100k random slot-steps without a fault", "[tasks][table][soak]") {
-  table_soak("switch");
+  soak_task("switch", 60);
 }
 TEST_CASE("soak: pour_water: 100k random slot-steps without a fault", "[tasks][table][soak]") {
-  table_soak("pour_water");
+  soak_task("pour_water", 60);
 }

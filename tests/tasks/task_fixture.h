@@ -305,4 +305,37 @@ inline int body_id(const tasks::TaskEnv& env, const std::string& name) {
   return b;
 }
 
+// The soak of a task: 1,024 slots x 98 random-action steps (100,352 slot-steps) must run with no
+// simulation fault, finite rewards and observations, and every slot ending at least one episode
+// (so resets ran inside step). Tasks whose episodes are longer than 98 steps pass a shorter
+// `episode_length` (run on an edited copy of their YAML).
+inline void soak_task(const std::string& id, int episode_length = 0) {
+  constexpr int kSlots = 1024, kSteps = 98;
+  TaskTempDir dir;
+  const std::string config =
+      episode_length > 0
+          ? edited_yaml(dir, id, {{"episode_length", std::to_string(episode_length)}})
+          : std::string();
+  auto env = make_env(id, kSlots, 2024, 0, config);
+  std::mt19937_64 rng(77);
+  std::vector<float> a(static_cast<size_t>(kSlots) * env->act_dim());
+  int64_t faults = 0, episodes = 0, bad_values = 0;
+  for (int step = 0; step < kSteps; ++step) {
+    random_actions(a, rng);
+    env->step(a);
+    auto st = env->take_stats();
+    faults += st.faults;
+    episodes += st.episodes;
+    for (float r : env->reward) bad_values += !std::isfinite(r);
+  }
+  INFO(id << ": " << faults << " faults, " << episodes << " episodes finished in "
+          << static_cast<int64_t>(kSlots) * kSteps << " slot-steps");
+  CHECK(faults == 0);
+  CHECK(env->batch().total_faults() == 0);
+  CHECK(bad_values == 0);
+  for (float x : env->obs) bad_values += !std::isfinite(x);
+  CHECK(bad_values == 0);
+  CHECK(episodes >= kSlots);  // every slot ended an episode (time limit or task) and went on
+}
+
 }  // namespace bidex::test
