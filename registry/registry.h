@@ -1,0 +1,108 @@
+// The registry: one SQLite file of tasks ordered by human age, suites, training runs and
+// reference scores (registry/README.md). Versioned schema with migrations, WAL mode; several
+// processes may write at once (each write is one transaction that waits for the lock).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+struct sqlite3;
+
+namespace bidex::registry {
+
+// The current schema version (PRAGMA user_version); opening an older file migrates it.
+int schema_version();
+
+// --registry PATH, else $BIDEX_REGISTRY, else runs/registry.sqlite (relative to the working
+// directory, beside the default run folders).
+std::string default_path();
+
+struct TaskRecord {
+  std::string id;
+  int version = 1;
+  std::string paper_name, original_name;
+  int age_min = 0, age_max = 0;       // months
+  std::string age_text;               // as the paper writes it
+  std::string difficulty;             // easy | medium | hard
+  std::string skill;
+  int obs_dim = 0, act_dim = 0;
+  std::string origin;                 // "builtin" or the YAML file it was added from
+  std::map<std::string, std::string> sources;  // fact (age, difficulty, ...) -> where it comes from
+};
+
+struct SuiteRecord {
+  std::string id, mode, file, description;
+  struct Member {
+    std::string label, task, split;   // split: train | test
+    double reward_scale = 1.0;
+  };
+  std::vector<Member> members;
+};
+
+struct RunRecord {
+  int64_t id = 0;                     // assigned by begin_run
+  std::string algo;
+  std::string task;                   // a task id, or empty for a suite run
+  std::string suite;                  // a suite id, or empty
+  uint64_t seed = 0;
+  int64_t steps = 0;                  // slot-steps trained so far
+  std::string config_hash, code_version, run_dir, host;
+  std::string started, finished;      // UTC ISO-8601; finished empty while running
+  std::string status;                 // running | finished | stopped | failed
+  std::optional<double> final_return, final_success;
+};
+
+// Mean return and success of one task (a suite run has one per member, a task run one).
+struct TaskScore {
+  std::string task;                   // task id (for suite members: the member's task)
+  std::string label;                  // suite member label, or the task id
+  double mean_return = 0;
+  std::optional<double> success;
+  int64_t episodes = 0;
+};
+
+struct Reference {
+  std::string task;
+  std::string kind;                   // random | ground_truth
+  double value = 0;
+  std::string source;
+};
+
+class Registry {
+ public:
+  // Opens or creates the file (its folder too); migrates an older schema; WAL mode.
+  explicit Registry(const std::string& path);
+  ~Registry();
+  Registry(const Registry&) = delete;
+  Registry& operator=(const Registry&) = delete;
+  const std::string& path() const { return path_; }
+
+  std::vector<TaskRecord> tasks(bool by_age) const;
+  std::optional<TaskRecord> task(const std::string& id) const;
+  // Registers a task; an id already registered is an Error naming it.
+  void add_task(const TaskRecord& t);
+
+  std::vector<SuiteRecord> suites() const;
+  void put_suite(const SuiteRecord& s);  // insert or replace
+
+  // Records a new run (status running) and returns its id.
+  int64_t begin_run(const RunRecord& r);
+  // Updates the run's steps, status, finished time and final metrics, and replaces its scores.
+  void finish_run(int64_t id, const RunRecord& r, const std::vector<TaskScore>& scores);
+  std::vector<RunRecord> runs() const;
+  std::vector<TaskScore> scores(int64_t run_id) const;
+
+  void set_reference(const Reference& r);  // insert or replace (task, kind)
+  std::vector<Reference> references() const;
+  // (return - random) / (ground truth - random); empty when a reference is missing.
+  std::optional<double> normalised(const std::string& task, double mean_return) const;
+
+ private:
+  std::string path_;
+  sqlite3* db_ = nullptr;
+};
+
+}  // namespace bidex::registry

@@ -1,0 +1,110 @@
+// TaskPack: any mix of tasks in one batched instance. Each entry of a pack spec (task id, slot
+// count, task YAML with its goal parameters, reward scale) becomes a group of consecutive slots;
+// one call to step() runs every slot of every group inside one parallel loop over all slots
+// (taskpack/README.md). Observations and actions are padded to one width for the whole pack:
+//   observation row = [the task's own observation | zeros up to obs_pad | one-hot entry id]
+//   (multi-task mode), or the task's observation with its goal slices zeroed (meta mode);
+//   action row = [the task's actions | ignored entries up to act_pad].
+// Rewards are the task's reward times the entry's reward scale; episode statistics are kept per
+// entry, unscaled. Same seed and actions => bitwise identical results for any thread count.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "tasks/env.h"
+
+namespace bidex::taskpack {
+
+enum class PackMode {
+  kPlain,      // the task's observation, padded
+  kMultiTask,  // + one-hot entry id (MT suites)
+  kMeta,       // goal slices zeroed, no id (ML suites)
+};
+const char* mode_name(PackMode m);  // "plain", "multitask", "meta"
+
+struct PackEntry {
+  std::string task;           // a task or variant id (tasks::find_task)
+  std::string label;          // the entry's name in metrics and reports (empty: task)
+  std::string config;         // the task's YAML, goal parameters included (empty: its default)
+  int slots = 1;
+  double reward_scale = 1.0;
+};
+
+struct PackSpec {
+  std::string name;             // e.g. "MT4", or a task id for a one-task pack
+  PackMode mode = PackMode::kPlain;
+  std::vector<PackEntry> entries;
+  int obs_pad = 0;   // padded task-observation width (0: the widest entry's); >= every entry's
+  int act_pad = 0;   // padded action width (0: the widest entry's)
+  int one_hot = 0;   // one-hot width in multi-task mode (0: the number of entries)
+};
+
+struct PackOptions {
+  int threads = 0;            // 0: all cores
+  uint64_t seed = 0;          // entry g runs with group_seed(seed, g)
+  std::string hand_file;      // empty: configs/hands/shadow.yaml
+  std::string physics_file;   // empty: configs/sim/physics.yaml
+};
+
+// The seed of entry g's slots: seed + g * 0x9E3779B97F4A7C15 (mod 2^64). Entry 0 runs with the
+// pack's seed, so a one-entry pack is the task alone with the same seed.
+uint64_t group_seed(uint64_t seed, int g);
+
+// One pack of a pack spec with an invalid entry (unknown task, slots < 1, reward scale not
+// finite, a pad narrower than an entry) is a ConfigError naming the entry.
+class TaskPack {
+ public:
+  TaskPack(const PackSpec& spec, const PackOptions& options);
+  ~TaskPack();
+  TaskPack(const TaskPack&) = delete;
+  TaskPack& operator=(const TaskPack&) = delete;
+
+  const PackSpec& spec() const { return spec_; }
+  int nslot() const { return nslot_; }
+  int obs_dim() const { return obs_dim_; }   // obs_pad + one-hot width
+  int act_dim() const { return act_dim_; }   // act_pad
+  int threads() const;
+  int ngroups() const { return static_cast<int>(envs_.size()); }
+  const PackEntry& entry(int g) const { return spec_.entries[g]; }
+  const std::string& label(int g) const { return labels_[g]; }
+  tasks::TaskEnv& group(int g) { return *envs_[g]; }
+  const tasks::TaskEnv& group(int g) const { return *envs_[g]; }
+  int group_begin(int g) const { return begin_[g]; }   // first pack slot of entry g
+  int group_of(int slot) const;                        // entry of a pack slot
+  int one_hot_offset() const;                          // -1 unless multi-task mode
+  // Per entry, obs_pad values: 1 where the pack passes the task's observation through, 0 where
+  // it writes zeros (padding, and goal slices in meta mode).
+  const std::vector<uint8_t>& obs_keep(int g) const { return keep_[g]; }
+
+  // Starts a new episode in every slot and writes `obs`.
+  void reset();
+  // One control step of every slot; `actions` holds nslot x act_dim values (entries past the
+  // task's own action width are ignored).
+  void step(const float* actions);
+  void step(const std::vector<float>& actions);
+
+  // Results of the last step, rows per pack slot (widths obs_dim, 1, ...), as in TaskEnv.
+  std::vector<float> obs, final_obs, reward;   // reward: the task's reward x reward_scale
+  std::vector<uint8_t> terminated, truncated, success, fault;
+
+  // Episodes finished since the last call, per entry (unscaled returns).
+  std::vector<tasks::EpisodeStats> take_stats();
+  void set_profile(bool on);
+  tasks::StageProfile profile() const;  // summed over entries
+
+ private:
+  void write_row(int g, int local, int slot);  // pack rows of one slot from its entry's env
+
+  PackSpec spec_;
+  std::vector<std::unique_ptr<tasks::TaskEnv>> envs_;
+  std::vector<std::string> labels_;
+  std::vector<int> begin_;
+  std::vector<std::vector<uint8_t>> keep_;
+  int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, obs_pad_ = 0, one_hot_ = 0;
+  int threads_ = 1;
+};
+
+}  // namespace bidex::taskpack

@@ -1,0 +1,40 @@
+// Suites as data: configs/suites/<ID>.yaml (MT1, ML1, MT4, ML4, MT20, ML20), each a list of
+// train entries and test entries (task, label, task YAML with goal parameters, reward scale) and
+// a mode: multitask (one-hot entry id) or meta (goal slices masked). Read strictly: unknown keys,
+// missing fields, unknown tasks and duplicate labels are ConfigErrors naming file and key.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "taskpack/pack.h"
+
+namespace bidex::taskpack {
+
+struct SuiteEntry {
+  std::string task;           // task or variant id
+  std::string label;          // unique within the suite (default: task)
+  std::string config;         // task YAML, resolved to a path (empty: the task's default)
+  double reward_scale = 1.0;
+};
+
+struct Suite {
+  std::string id;             // "MT4"
+  std::string file;           // the YAML it came from
+  std::string description;
+  PackMode mode = PackMode::kMultiTask;
+  std::vector<SuiteEntry> train;
+  std::vector<SuiteEntry> test;   // multi-task suites: the train entries
+};
+
+// The ids of the suite files under <data dir>/configs/suites, in the paper's order.
+std::vector<std::string> known_suites();
+// A suite by id ("MT4", looked up under configs/suites) or by path to a YAML file.
+Suite load_suite(const std::string& id_or_file);
+// The pack of one split ("train" or "test") with `total_slots` spread evenly over its entries
+// (the first total_slots % n entries get one more). Observation and action pads are the widest
+// over both splits, so that a policy trained on one split runs on the other; the one-hot width
+// is the number of train entries.
+PackSpec suite_pack(const Suite& suite, const std::string& split, int total_slots);
+
+}  // namespace bidex::taskpack
