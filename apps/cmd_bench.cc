@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "bench/pack_bench.h"
 #include "bench/physics_study.h"
 #include "bench/sim_bench.h"
 #include "bench/task_bench.h"
@@ -115,6 +116,25 @@ void add_bench_command(CLI::App& app) {
                   std::to_string(tc->tasks.size()));
     emit(bench::run_task_bench(*tc), *task_out, command_line());
   });
+
+  // bench pack
+  auto pc = std::make_shared<bench::PackBenchConfig>();
+  auto pack_out = std::make_shared<std::string>();
+  auto* pack = bench->add_subcommand(
+      "pack", "Slot-steps/s of a suite's tasks packed in one instance against each task alone at "
+              "the same slot count (random actions, alternating rounds, the best of each kept)");
+  pack->add_option("--suite", pc->suite, "Suite id or file (its train split)")->capture_default_str();
+  pack->add_option("--slots", pc->slots, "Slots of the pack in all, and of each task alone")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  pack->add_option("--threads", pc->threads, "Threads (0: all cores)")->capture_default_str();
+  pack->add_option("--seconds", pc->min_seconds, "Timed stepping per measurement")
+      ->capture_default_str();
+  pack->add_option("--rounds", pc->rounds, "Alternations of packed and single measurements")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  pack->add_option("--seed", pc->seed, "Seed")->capture_default_str();
+  pack->add_option("--out,-o", *pack_out, "Write the JSON here (atomically) instead of stdout");
+  pack->footer("Example:\n  bidex bench pack --suite MT4 --slots 64 --seconds 0.5 --rounds 1");
+  pack->callback([pc, pack_out] { emit(bench::run_pack_bench(*pc), *pack_out, command_line()); });
 
   // bench physics
   auto ps = std::make_shared<bench::PhysicsStudyConfig>();

@@ -1,11 +1,16 @@
-// bidex train / eval: PPO on a task with a run folder (config, metrics, learning curve,
-// checkpoints), resuming a stopped run, and evaluating a trained policy.
+// bidex train / eval: PPO on a task or multi-task PPO on a suite, with a run folder (config,
+// metrics, learning curve, checkpoints) and a record in the registry; resuming a stopped run;
+// evaluating a trained (or a random) policy.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <ctime>
 #include <memory>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
@@ -13,9 +18,12 @@
 #include "apps/commands.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/version.h"
+#include "registry/registry.h"
 #include "rl/config.h"
 #include "rl/metrics.h"
 #include "rl/trainer.h"
+#include "taskpack/suite.h"
 #include "tasks/registry.h"
 
 namespace bidex::apps {
@@ -59,21 +67,147 @@ void print_curve(const std::string& dir) {
 }
 }  // namespace
 
+std::string utc_now() {
+  std::time_t t = std::time(nullptr);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
+  return buf;
+}
+
+std::string host_name() {
+  char buf[256] = {};
+  if (::gethostname(buf, sizeof buf - 1) != 0) return "";
+  return buf;
+}
+
+std::string absolute(const std::string& path) {
+  char* r = ::realpath(path.c_str(), nullptr);
+  if (!r) return path;
+  std::string out = r;
+  std::free(r);
+  return out;
+}
+
+// One run's row in the registry: created when the run folder is ready (its id kept in
+// <run>/registry.json, so that --resume updates the same row), completed when training ends.
+class RunRecorder {
+ public:
+  explicit RunRecorder(std::string path) : path_(std::move(path)) {}
+  bool enabled() const { return !path_.empty(); }
+
+  void start(const rl::TrainConfig& c, const std::string& run_dir) {
+    if (!enabled()) return;
+    reg_ = std::make_unique<registry::Registry>(path_);
+    const std::string link = run_dir + "/registry.json";
+    const std::string abs_reg = absolute(path_);
+    if (::access(link.c_str(), F_OK) == 0) {  // a resumed run: the same row, if it is in this registry
+      try {
+        auto j = nlohmann::json::parse(read_file(link));
+        if (j.value("registry", "") == abs_reg) id_ = j.at("run_id").get<int64_t>();
+      } catch (const std::exception&) {
+        id_ = 0;
+      }
+      for (auto& r : reg_->runs())
+        if (r.id == id_) rec_ = r;
+      if (rec_.id == 0) id_ = 0;
+    }
+    if (id_ == 0) {
+      rec_ = registry::RunRecord{};
+      rec_.algo = c.algo;
+      rec_.task = c.task;
+      rec_.suite = c.suite;
+      rec_.seed = c.seed;
+      rec_.config_hash = rl::config_hash(read_file(run_dir + "/config.yaml"));
+      rec_.code_version = code_version();
+      rec_.run_dir = absolute(run_dir);
+      rec_.host = host_name();
+      rec_.started = utc_now();
+      rec_.status = "running";
+      id_ = reg_->begin_run(rec_);
+      rec_.id = id_;
+      nlohmann::json j = {{"registry", abs_reg}, {"run_id", id_}};
+      write_file_atomic(link, j.dump(2) + "\n");
+    }
+  }
+
+  void finish(const rl::TrainResult* r, const std::string& status) {
+    if (!reg_ || id_ == 0) return;
+    rec_.status = status;
+    rec_.finished = utc_now();
+    std::vector<registry::TaskScore> scores;
+    if (r) {
+      rec_.steps = r->steps;
+      if (std::isfinite(r->last_return)) rec_.final_return = r->last_return;
+      if (std::isfinite(r->last_success)) rec_.final_success = r->last_success;
+      for (auto& e : r->scores) {
+        if (e.episodes == 0) continue;
+        registry::TaskScore t;
+        t.task = e.task;
+        t.label = e.label;
+        t.mean_return = e.mean_return;
+        if (std::isfinite(e.success)) t.success = e.success;
+        t.episodes = e.episodes;
+        scores.push_back(t);
+      }
+    }
+    reg_->finish_run(id_, rec_, scores);
+  }
+
+  // "normalised 0.42" (or why not) for a task's mean return.
+  std::string normalised(const std::string& task, double mean_return) const {
+    if (!reg_ || !std::isfinite(mean_return)) return "";
+    auto n = reg_->normalised(task, mean_return);
+    return n ? "normalised " + num(*n, "%.3f") : "normalised n/a (no reference scores)";
+  }
+  int64_t id() const { return id_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+  std::unique_ptr<registry::Registry> reg_;
+  registry::RunRecord rec_;
+  int64_t id_ = 0;
+};
+
+// The final scores of a run, one line per task of a suite.
+void print_scores(const rl::TrainResult& r, const RunRecorder& rec) {
+  if (r.scores.size() < 2) {
+    if (r.scores.size() == 1 && rec.enabled())
+      std::printf("%s\n", rec.normalised(r.scores[0].task, r.scores[0].mean_return).c_str());
+    return;
+  }
+  std::printf("%-24s %10s %8s %9s  (episodes of the last 10 updates)\n", "task", "return",
+              "success", "episodes");
+  for (auto& e : r.scores)
+    std::printf("%-24s %10s %8s %9lld  %s\n", e.label.c_str(), num(e.mean_return).c_str(),
+                num(e.success, "%.3f").c_str(), static_cast<long long>(e.episodes),
+                rec.normalised(e.task, e.mean_return).c_str());
+}
+
 void add_train_command(CLI::App& app) {
   struct Opts {
-    std::string task, algo = "ppo", config, run, resume;
+    std::string task, suite, algo, config, run, resume, registry;
     std::vector<std::string> overrides;
     int64_t stop_after = 0;
     double time_limit = 0;
+    bool no_registry = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
-      "train", "Train a policy on a task (PPO); writes a run folder with config.yaml, "
-               "metrics.csv/.jsonl, learning_curve.svg and checkpoints/, and resumes one");
+      "train", "Train a policy on a task (PPO) or a suite (multi-task PPO); writes a run folder "
+               "with config.yaml, metrics.csv/.jsonl, learning_curve.svg and checkpoints/, "
+               "records the run in the registry, and resumes a run");
   cmd->add_option("--task", o->task, "Task id (see bidex info --task ID)");
-  cmd->add_option("--algo", o->algo, "Algorithm (ppo)")->capture_default_str();
+  cmd->add_option("--suite", o->suite,
+                  "Suite id (MT1, MT4, MT20; see configs/suites) or a suite YAML file");
+  cmd->add_option("--algo", o->algo, "Algorithm: ppo (a task, the default with --task) or "
+                                     "mtppo (a suite, the default with --suite)");
   cmd->add_option("--config", o->config,
                   "Training defaults YAML (default: configs/train/<algo>.yaml)");
+  cmd->add_option("--registry", o->registry,
+                  "Registry file the run is recorded in (default: $BIDEX_REGISTRY, else "
+                  "runs/registry.sqlite)");
+  cmd->add_flag("--no-registry", o->no_registry, "Do not record the run in a registry");
   cmd->add_option("-o,--override", o->overrides,
                   "Change one setting, key.path=value (repeatable), e.g. -o ppo.lr=1e-3 "
                   "-o env.slots=256 -o train.steps=2e6");
@@ -90,6 +224,7 @@ void add_train_command(CLI::App& app) {
       "Examples:\n"
       "  bidex train --task catch_underarm_raise          # a small run, a few minutes on 2 cores\n"
       "  bidex train --task hand_over --algo ppo -o env.slots=64 -o train.steps=200000\n"
+      "  bidex train --suite MT4 --algo mtppo -o env.slots=256\n"
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
   cmd->callback([o] {
@@ -97,26 +232,56 @@ void add_train_command(CLI::App& app) {
     to.command = command_line();
     to.stop_after_updates = o->stop_after;
     to.time_limit_s = o->time_limit;
+    if (o->no_registry && !o->registry.empty())
+      throw Error("train: --registry and --no-registry contradict each other");
+    auto rec = std::make_shared<RunRecorder>(
+        o->no_registry ? "" : (o->registry.empty() ? registry::default_path() : o->registry));
+    to.on_start = [rec](const rl::TrainConfig& c, const std::string& dir) { rec->start(c, dir); };
     rl::TrainResult r;
-    if (!o->resume.empty()) {
-      if (!o->task.empty() || !o->overrides.empty() || !o->config.empty() || !o->run.empty())
-        throw Error("--resume continues a run with its own config.yaml: drop --task, --config, "
-                    "--run and -o");
-      r = rl::train_resume(o->resume, to);
-    } else {
-      if (o->task.empty()) throw Error("train: --task is required (or --resume DIR)");
-      tasks::find_task(o->task);  // unknown id: the error lists the known ones
-      const std::string file = o->config.empty() ? rl::default_train_config(o->algo) : o->config;
-      rl::default_train_config(o->algo);  // unknown algorithm: the error lists the known ones
-      const std::string yaml = rl::resolve_train_yaml(file, o->algo, o->task, o->overrides);
-      const rl::TrainConfig c = rl::parse_train_config(yaml, file);
-      const std::string dir = o->run.empty() ? rl::default_run_dir(c) : o->run;
-      r = rl::train_new(yaml, dir, to);
+    try {
+      if (!o->resume.empty()) {
+        if (!o->task.empty() || !o->suite.empty() || !o->overrides.empty() ||
+            !o->config.empty() || !o->run.empty() || !o->algo.empty())
+          throw Error("--resume continues a run with its own config.yaml: drop --task, --suite, "
+                      "--algo, --config, --run and -o");
+        r = rl::train_resume(o->resume, to);
+      } else {
+        if (o->task.empty() == o->suite.empty())
+          throw Error("train: give one of --task ID and --suite ID (or --resume DIR)");
+        const std::string algo = !o->algo.empty() ? o->algo : (o->suite.empty() ? "ppo" : "mtppo");
+        rl::default_train_config(algo);  // unknown algorithm: the error lists the known ones
+        if (rl::algo_takes_suite(algo) && o->suite.empty())
+          throw Error("train: --algo " + algo + " trains on a suite: give --suite (MT1, MT4, MT20)");
+        if (!rl::algo_takes_suite(algo) && o->task.empty())
+          throw Error("train: --algo " + algo + " trains on one task: give --task, or use "
+                      "--algo mtppo for a suite");
+        if (!o->task.empty()) tasks::find_task(o->task);  // unknown id: lists the known ones
+        if (!o->suite.empty()) {
+          const taskpack::Suite su = taskpack::load_suite(o->suite);  // unknown: lists them
+          if (su.mode != taskpack::PackMode::kMultiTask)
+            throw Error("train: suite " + o->suite + " is a meta-learning suite (goal slices "
+                        "masked, no task id); --algo mtppo trains the multi-task suites (MT1, "
+                        "MT4, MT20)");
+        }
+        const std::string file = o->config.empty() ? rl::default_train_config(algo) : o->config;
+        const std::string target = o->suite.empty() ? o->task : o->suite;
+        const std::string yaml = rl::resolve_train_yaml(file, algo, target, o->overrides);
+        const rl::TrainConfig c = rl::parse_train_config(yaml, file);
+        const std::string dir = o->run.empty() ? rl::default_run_dir(c) : o->run;
+        r = rl::train_new(yaml, dir, to);
+      }
+    } catch (...) {
+      rec->finish(nullptr, "failed");  // a run that started and then failed is kept as failed
+      throw;
     }
+    rec->finish(&r, r.interrupted ? "stopped" : "finished");
     std::printf("run %s: %lld updates, %lld slot-steps; last mean return %s, success rate %s\n",
                 r.run_dir.c_str(), static_cast<long long>(r.updates),
                 static_cast<long long>(r.steps), num(r.last_return).c_str(),
                 num(r.last_success, "%.3f").c_str());
+    print_scores(r, *rec);
+    if (rec->id() > 0)
+      std::printf("registry %s: run %lld\n", rec->path().c_str(), static_cast<long long>(rec->id()));
     print_curve(r.run_dir);
     std::printf("checkpoint %s\nlearning curve %s/learning_curve.svg\n", r.checkpoint.c_str(),
                 r.run_dir.c_str());
@@ -130,43 +295,112 @@ void add_train_command(CLI::App& app) {
 
 void add_eval_command(CLI::App& app) {
   struct Opts {
-    std::string run, checkpoint, json;
+    std::string run, checkpoint, json, task, suite, task_config, registry;
     int episodes = 100, threads = 0;
     uint64_t seed = 12345;
+    bool random = false, set_reference = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
-      "eval", "Evaluate a trained policy (its mean action): mean return and success rate over "
-              "episodes");
-  cmd->add_option("--run", o->run, "Run folder of bidex train")->required();
+      "eval", "Evaluate a trained policy (its mean action), or a random policy: mean return and "
+              "success rate over episodes (per task for a suite)");
+  cmd->add_option("--run", o->run, "Run folder of bidex train");
   cmd->add_option("--checkpoint", o->checkpoint, "Checkpoint file (default: the run's newest)");
-  cmd->add_option("--episodes", o->episodes, "Episodes (one per parallel slot)")
+  cmd->add_flag("--random", o->random,
+                "Evaluate a random policy (actions uniform in [-1, 1]) on --task or --suite");
+  cmd->add_option("--task", o->task, "Task id (with --random)");
+  cmd->add_option("--suite", o->suite, "Suite id or file (with --random): each task of its train split");
+  cmd->add_option("--task-config", o->task_config, "Task YAML (with --random --task; default: the task's own)");
+  cmd->add_flag("--set-reference", o->set_reference,
+                "With --random: store each task's mean return as its 'random' reference score in "
+                "the registry");
+  cmd->add_option("--registry", o->registry,
+                  "Registry file for --set-reference (default: $BIDEX_REGISTRY, else "
+                  "runs/registry.sqlite)");
+  cmd->add_option("--episodes", o->episodes, "Episodes (one per parallel slot; per task for a suite)")
       ->check(CLI::Range(1, 100000))->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the evaluation episodes")->capture_default_str();
   cmd->add_option("--threads", o->threads, "Threads (0: all cores)");
   cmd->add_option("--json", o->json, "Also write the result as JSON to this file");
-  cmd->footer("Example:\n  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200");
+  cmd->footer("Examples:\n"
+              "  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200\n"
+              "  bidex eval --random --task hand_over --episodes 1000 --set-reference");
   cmd->callback([o] {
-    rl::LoadedPolicy policy(o->run, o->checkpoint);
-    const rl::EvalResult r = rl::evaluate(policy, o->episodes, o->seed, o->threads);
-    std::printf("%s, checkpoint %s (update %lld): %d episodes, mean return %s (std %s), "
-                "success rate %.3f, mean length %.1f, faults %lld\n",
-                policy.config().task.c_str(), policy.checkpoint().c_str(),
-                static_cast<long long>(policy.update()), r.episodes, num(r.mean_return).c_str(),
-                num(r.std_return).c_str(), r.success_rate, r.mean_length,
-                static_cast<long long>(r.faults));
+    rl::EvalResult r;
+    std::string what, checkpoint, target;
+    int64_t update = 0;
+    if (o->random) {
+      if (!o->run.empty() || !o->checkpoint.empty())
+        throw Error("eval: --random evaluates a random policy on --task or --suite, not a run");
+      if (o->task.empty() == o->suite.empty())
+        throw Error("eval: --random needs one of --task ID and --suite ID");
+      rl::TrainConfig c;
+      c.task = o->task;
+      c.suite = o->suite;
+      c.task_config = o->task_config;
+      if (!c.task.empty()) tasks::find_task(c.task);
+      r = rl::evaluate_random(c, o->episodes, o->seed, o->threads);
+      target = c.target();
+      what = target + ", random policy";
+    } else {
+      if (o->run.empty()) throw Error("eval: give --run DIR (or --random with --task or --suite)");
+      if (!o->task.empty() || !o->suite.empty() || o->set_reference || !o->task_config.empty())
+        throw Error("eval: --task, --suite, --task-config and --set-reference go with --random");
+      rl::LoadedPolicy policy(o->run, o->checkpoint);
+      r = rl::evaluate(policy, o->episodes, o->seed, o->threads);
+      target = policy.config().target();
+      what = target;
+      checkpoint = policy.checkpoint();
+      update = policy.update();
+      what += ", checkpoint " + checkpoint + " (update " + std::to_string(update) + ")";
+    }
+    std::printf("%s: %d episodes, mean return %s (std %s), success rate %.3f, mean length %.1f, "
+                "faults %lld\n",
+                what.c_str(), r.episodes, num(r.mean_return).c_str(), num(r.std_return).c_str(),
+                r.success_rate, r.mean_length, static_cast<long long>(r.faults));
+    if (r.per_task.size() > 1) {
+      std::printf("%-24s %10s %8s %9s\n", "task", "return", "success", "episodes");
+      for (auto& e : r.per_task)
+        std::printf("%-24s %10s %8.3f %9lld\n", e.label.c_str(), num(e.mean_return).c_str(),
+                    e.success, static_cast<long long>(e.episodes));
+    }
+    if (o->set_reference) {
+      if (!o->random) throw Error("eval: --set-reference stores a random policy's score: add --random");
+      if (!o->task_config.empty())
+        throw Error("eval: --set-reference records the task's default configuration: drop "
+                    "--task-config");
+      registry::Registry reg(o->registry.empty() ? registry::default_path() : o->registry);
+      for (auto& e : r.per_task) {
+        registry::Reference ref;
+        ref.task = e.task;
+        ref.kind = "random";
+        ref.value = e.mean_return;
+        ref.source = "bidex eval --random: " + std::to_string(e.episodes) + " episodes, seed " +
+                     std::to_string(o->seed) + ", code " + code_version() + ", " + utc_now();
+        reg.set_reference(ref);
+        std::printf("registry %s: random reference of %s = %s\n", reg.path().c_str(),
+                    e.task.c_str(), num(e.mean_return).c_str());
+      }
+    }
     if (!o->json.empty()) {
+      nlohmann::json per = nlohmann::json::array();
+      for (auto& e : r.per_task)
+        per.push_back({{"label", e.label}, {"task", e.task}, {"episodes", e.episodes},
+                       {"mean_return", e.mean_return}, {"success_rate", e.success}});
       nlohmann::json j = {{"run", o->run},
-                          {"task", policy.config().task},
-                          {"checkpoint", policy.checkpoint()},
-                          {"update", policy.update()},
+                          {"task", target},
+                          {"policy", o->random ? "random" : "checkpoint"},
+                          {"checkpoint", checkpoint},
+                          {"update", update},
                           {"episodes", r.episodes},
                           {"mean_return", r.mean_return},
                           {"std_return", r.std_return},
                           {"success_rate", r.success_rate},
                           {"mean_length", r.mean_length},
                           {"faults", r.faults},
+                          {"per_task", per},
                           {"seed", o->seed},
+                          {"code_version", code_version()},
                           {"command", command_line()}};
       write_file_atomic(o->json, j.dump(2) + "\n");
     }

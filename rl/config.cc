@@ -12,9 +12,11 @@
 namespace bidex::rl {
 
 const std::vector<std::string>& known_algos() {
-  static const std::vector<std::string> algos = {"ppo"};
+  static const std::vector<std::string> algos = {"ppo", "mtppo"};
   return algos;
 }
+
+bool algo_takes_suite(const std::string& algo) { return algo == "mtppo"; }
 
 namespace {
 
@@ -61,13 +63,15 @@ std::string default_train_config(const std::string& algo) {
 }
 
 std::string resolve_train_yaml(const std::string& file, const std::string& algo,
-                               const std::string& task, const std::vector<std::string>& overrides) {
+                               const std::string& target, const std::vector<std::string>& overrides) {
+  const std::string& task = target;
   YamlView v = YamlView::load_file(file);
   v.expect_map();
   YAML::Node root = YAML::Clone(v.node());
-  if (root["task"] || root["algo"])
-    throw ConfigError(file, root["task"] ? "task" : "algo",
-                      "no task or algo key (they come from --task and --algo)", "one");
+  for (const char* k : {"task", "suite", "algo"})
+    if (root[k])
+      throw ConfigError(file, k, "no task, suite or algo key (they come from --task, --suite and --algo)",
+                        "one");
   if (auto per = root["per_task"]) {
     if (!per.IsMap()) YamlView(per, file, "per_task").fail("a map of task id -> overrides", "another value");
     if (auto mine = per[task]) {
@@ -118,7 +122,7 @@ std::string resolve_train_yaml(const std::string& file, const std::string& algo,
     }
   }
   YAML::Node out;
-  out["task"] = task;
+  out[algo_takes_suite(algo) ? "suite" : "task"] = target;
   out["algo"] = algo;
   for (auto it = root.begin(); it != root.end(); ++it) out[it->first] = it->second;
   YAML::Emitter em;
@@ -132,10 +136,22 @@ std::string resolve_train_yaml(const std::string& file, const std::string& algo,
 
 TrainConfig parse_train_config(const std::string& yaml_text, const std::string& name) {
   YamlView v = YamlView::load_string(yaml_text, name);
-  v.allow_keys({"task", "algo", "seed", "env", "train", "ppo"});
+  v.allow_keys({"task", "suite", "algo", "seed", "env", "train", "ppo"});
   TrainConfig c;
-  c.task = v.req<std::string>("task");
   c.algo = v.req<std::string>("algo");
+  {
+    bool known = false;
+    for (auto& a : known_algos()) known |= a == c.algo;
+    if (!known) v.child("algo").fail("a known algorithm (" + join(known_algos()) + ")", c.algo);
+  }
+  // ppo trains on a task, mtppo on a suite
+  const char* want = algo_takes_suite(c.algo) ? "suite" : "task";
+  const char* other = algo_takes_suite(c.algo) ? "task" : "suite";
+  if (v.has(other))
+    v.child(other).fail(std::string("no '") + other + "' key for algorithm " + c.algo + " (it trains on a " +
+                            want + ")",
+                        v.child(other).repr());
+  (algo_takes_suite(c.algo) ? c.suite : c.task) = v.req<std::string>(want);
   {
     auto s = v.child("seed");
     const double x = s.as<double>();
@@ -171,6 +187,9 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     c.slots = positive(e, "slots", 1);
     c.threads = positive(e, "threads", 0);
     c.task_config = e.req<std::string>("task_config");
+    if (!c.suite.empty() && !c.task_config.empty())
+      e.child("task_config").fail("\"\" for a suite run (each suite entry names its own task YAML)",
+                                  e.child("task_config").repr());
   }
   {
     auto t = v.child("train");

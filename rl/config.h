@@ -34,7 +34,8 @@ struct PpoConfig {
 
 struct TrainConfig {
   std::string algo = "ppo";
-  std::string task;
+  std::string task;               // a task run: the task id (suite empty)
+  std::string suite;              // a suite run (mtppo): the suite id or file (task empty)
   uint64_t seed = 0;
   int slots = 2048;
   int threads = 0;
@@ -49,21 +50,28 @@ struct TrainConfig {
 
   // slot-steps per update
   int64_t batch() const { return int64_t(slots) * ppo.horizon; }
+  // What the run trains on: the task id or the suite.
+  const std::string& target() const { return suite.empty() ? task : suite; }
 };
 
-// The algorithms `bidex train` knows.
+// The algorithms `bidex train` knows: ppo (one task) and mtppo (a multi-task suite: PPO on the
+// suite's pack, observations with a one-hot task id).
 const std::vector<std::string>& known_algos();
 
 // The defaults file of an algorithm: <data dir>/configs/train/<algo>.yaml. Unknown algo:
 // ConfigError listing the known ones.
 std::string default_train_config(const std::string& algo);
 
+// Whether an algorithm trains on a suite (mtppo) rather than on one task (ppo).
+bool algo_takes_suite(const std::string& algo);
+
 // Builds the resolved YAML text for a new run: `file`'s top-level keys (per_task removed, the
-// task's own section merged in), then each "key.path=value" override; adds `task` and `algo`.
+// section of the task or suite merged in), then each "key.path=value" override; adds `algo` and
+// `task: <target>` (a task algorithm) or `suite: <target>` (a suite algorithm).
 // A malformed override (no '=', empty key), an unknown key or a value of the wrong type is a
 // ConfigError naming the override.
 std::string resolve_train_yaml(const std::string& file, const std::string& algo,
-                               const std::string& task, const std::vector<std::string>& overrides);
+                               const std::string& target, const std::vector<std::string>& overrides);
 
 // Reads a resolved YAML (as written by resolve_train_yaml) strictly. `name` names it in errors.
 TrainConfig parse_train_config(const std::string& yaml_text, const std::string& name);

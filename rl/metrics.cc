@@ -192,7 +192,22 @@ void MetricsLog::plot(const std::string& title) const {
   const plot::Panel ret = panel(title, "mean episode return", "return");
   const plot::Panel succ = panel("success rate", "fraction of episodes", "success");
   const plot::Panel len = panel("episode length", "control steps", "length");
-  write_file_atomic(dir_ + "/learning_curve.svg", plot::svg({ret, succ, len}, 760, 260));
+  std::vector<plot::Panel> panels = {ret, succ, len};
+  // a suite run: one line per task (columns return_<label>)
+  plot::Panel per;
+  per.title = "mean episode return per task";
+  per.xlabel = "slot-steps";
+  per.ylabel = "return";
+  for (const std::string& c : columns_) {
+    if (c.rfind("return_", 0) != 0) continue;
+    plot::Series s;
+    s.name = c.substr(7);
+    s.x = steps;
+    s.y = column(c);
+    per.series.push_back(std::move(s));
+  }
+  if (!per.series.empty()) panels.insert(panels.begin() + 1, std::move(per));
+  write_file_atomic(dir_ + "/learning_curve.svg", plot::svg(panels, 760, 260));
 }
 
 }  // namespace bidex::rl

@@ -28,8 +28,9 @@ class MetricsLog {
   const std::vector<std::vector<double>>& rows() const { return rows_; }
   // A column by name (NaN where missing); throws std::out_of_range for an unknown name.
   std::vector<double> column(const std::string& name) const;
-  // Writes learning_curve.svg (mean return, success rate and episode length against slot-steps)
-  // atomically; `title` heads the first panel.
+  // Writes learning_curve.svg (mean return, success rate and episode length against slot-steps,
+  // and for a suite run one line per task from the return_<label> columns) atomically; `title`
+  // heads the first panel.
   void plot(const std::string& title) const;
 
  private:

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <ctime>
 #include <optional>
+#include <random>
 
 #include <dirent.h>
 #include <sys/stat.h>
@@ -23,7 +24,10 @@
 #include "rl/metrics.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
+#include "sim/batch.h"
 #include "sim/tensor.h"
+#include "taskpack/pack.h"
+#include "taskpack/suite.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
 
@@ -79,10 +83,34 @@ torch::Device pick_device(const TrainConfig& c, const std::string& name) {
   return torch::Device(torch::kCUDA, 0);
 }
 
-std::vector<std::string> metric_columns(const tasks::TaskSpec& spec) {
+// The pack a run trains on: its task alone (one entry, plain observations), or the train split
+// of its suite with `slots` spread over the entries.
+taskpack::PackSpec run_pack(const TrainConfig& c, int slots) {
+  if (!c.suite.empty()) return taskpack::suite_pack(taskpack::load_suite(c.suite), "train", slots);
+  taskpack::PackSpec p;
+  p.name = c.task;
+  p.mode = taskpack::PackMode::kPlain;
+  taskpack::PackEntry e;
+  e.task = c.task;
+  e.label = c.task;
+  e.config = c.task_config;
+  e.slots = slots;
+  p.entries.push_back(e);
+  return p;
+}
+
+// Columns of metrics.csv. A task run has one column per reward term; a suite run has the return
+// and success rate of each task, and the mean of the scaled returns (what PPO optimises).
+std::vector<std::string> metric_columns(const taskpack::TaskPack& pack) {
   std::vector<std::string> cols = {"update", "steps", "wall_s", "fps", "sim_fps", "episodes",
                                    "return", "length", "success"};
-  for (auto& t : spec.reward_terms) cols.push_back("term_" + t.name);
+  if (pack.ngroups() == 1) {
+    for (auto& t : pack.group(0).spec().reward_terms) cols.push_back("term_" + t.name);
+  } else {
+    cols.push_back("scaled_return");
+    for (int g = 0; g < pack.ngroups(); ++g) cols.push_back("return_" + pack.label(g));
+    for (int g = 0; g < pack.ngroups(); ++g) cols.push_back("success_" + pack.label(g));
+  }
   for (const char* c : {"policy_loss", "value_loss", "entropy", "kl", "lr", "clip_fraction",
                         "action_std", "faults"})
     cols.push_back(c);
@@ -102,12 +130,55 @@ std::string utc_now() {
   return buf;
 }
 
+// The versioned id of what a run trains on: the task's (catch_underarm-v1), or for a suite its
+// id and the versioned ids of its entries.
+std::string target_version(const taskpack::TaskPack& pack) {
+  if (pack.ngroups() == 1 && pack.spec().mode == taskpack::PackMode::kPlain)
+    return pack.group(0).spec().versioned_id();
+  std::string v = pack.spec().name + "[";
+  for (int g = 0; g < pack.ngroups(); ++g)
+    v.append(g ? "," : "").append(pack.group(g).spec().versioned_id());
+  return v + "]";
+}
+
+// Episode statistics of the last few updates, per pack entry: the run's final score.
+class RecentScores {
+ public:
+  explicit RecentScores(int updates) : keep_(updates) {}
+  void add(const std::vector<tasks::EpisodeStats>& es) {
+    window_.push_back(es);
+    if (static_cast<int>(window_.size()) > keep_) window_.erase(window_.begin());
+  }
+  std::vector<EntryScore> scores(const taskpack::TaskPack& pack) const {
+    std::vector<EntryScore> out;
+    for (int g = 0; g < pack.ngroups(); ++g) {
+      EntryScore e;
+      e.label = pack.label(g);
+      e.task = pack.entry(g).task;
+      double ret = 0, succ = 0;
+      for (auto& w : window_) {
+        e.episodes += w[g].episodes;
+        ret += w[g].return_sum;
+        succ += static_cast<double>(w[g].successes);
+      }
+      e.mean_return = e.episodes > 0 ? ret / e.episodes : NAN;
+      e.success = e.episodes > 0 ? succ / e.episodes : NAN;
+      out.push_back(e);
+    }
+    return out;
+  }
+
+ private:
+  int keep_;
+  std::vector<std::vector<tasks::EpisodeStats>> window_;
+};
+
 // Everything one training process holds.
 struct Session {
   std::string dir, yaml, name;
   TrainConfig cfg;
   torch::Device device{torch::kCPU};
-  std::unique_ptr<tasks::TaskEnv> env;
+  std::unique_ptr<taskpack::TaskPack> env;
   ActorCritic model{nullptr};
   std::unique_ptr<Ppo> ppo;
   int64_t update = 0, steps = 0;
@@ -118,11 +189,10 @@ struct Session {
     device = pick_device(cfg, name);
     if (cfg.torch_threads > 0) torch::set_num_threads(cfg.torch_threads);
     torch::manual_seed(cfg.seed);
-    tasks::EnvOptions eo;
-    eo.nslot = cfg.slots;
-    eo.threads = cfg.threads;
-    eo.seed = env_seed;
-    env = std::make_unique<tasks::TaskEnv>(tasks::make_task(cfg.task, cfg.task_config), eo);
+    taskpack::PackOptions po;
+    po.threads = cfg.threads;
+    po.seed = env_seed;
+    env = std::make_unique<taskpack::TaskPack>(run_pack(cfg, cfg.slots), po);
     model = ActorCritic(env->obs_dim(), env->act_dim(), cfg.ppo);
     model->to(device);
     ppo = std::make_unique<Ppo>(model, cfg.ppo);
@@ -130,8 +200,8 @@ struct Session {
 
   CheckpointMeta meta() const {
     CheckpointMeta m;
-    m.task = cfg.task;
-    m.task_version = env->spec().versioned_id();
+    m.task = cfg.target();
+    m.task_version = target_version(*env);
     m.algo = cfg.algo;
     m.obs_dim = env->obs_dim();
     m.act_dim = env->act_dim();
@@ -186,16 +256,19 @@ void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& a
 // A checkpoint must belong to this task and these shapes.
 void check_meta(const CheckpointMeta& m, const std::string& path, const std::string& task,
                 int64_t obs_dim, int64_t act_dim, const std::string& where) {
-  if (m.task != task || m.obs_dim != obs_dim || m.act_dim != act_dim)
-    throw Error("checkpoint " + path + " was trained on task " + m.task + " (observations " +
+  if (m.task != task || (obs_dim > 0 && m.obs_dim != obs_dim) ||
+      (act_dim > 0 && m.act_dim != act_dim))
+    throw Error("checkpoint " + path + " was trained on " + m.task + " (observations " +
                 std::to_string(m.obs_dim) + ", actions " + std::to_string(m.act_dim) + "); " +
-                where + " is task " + task + " (observations " + std::to_string(obs_dim) +
-                ", actions " + std::to_string(act_dim) + ")");
+                where + " is " + task +
+                (obs_dim > 0 ? " (observations " + std::to_string(obs_dim) + ", actions " +
+                                   std::to_string(act_dim) + ")"
+                             : std::string()));
 }
 
 void load_into(Session& s, const std::string& path) {
   CheckpointMeta m = read_checkpoint_meta(path);
-  check_meta(m, path, s.cfg.task, s.env->obs_dim(), s.env->act_dim(), "run " + s.dir);
+  check_meta(m, path, s.cfg.target(), s.env->obs_dim(), s.env->act_dim(), "run " + s.dir);
   torch::serialize::InputArchive root, net, opt;
   load_checkpoint(path, root, s.device);
   try {
@@ -239,11 +312,13 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
 
   std::optional<Progress> bar;
   if (opt.progress) {
-    bar.emplace("train " + s.cfg.task, s.cfg.steps, "steps");
+    bar.emplace("train " + s.cfg.target(), s.cfg.steps, "steps");
     bar->set_baseline(std::min(s.steps, s.cfg.steps));
   }
   TrainResult res;
   res.run_dir = s.dir;
+  RecentScores recent(10);
+  const std::string title = s.cfg.target() + (s.cfg.algo == "mtppo" ? " (multi-task PPO)" : " (PPO)");
   res.last_return = NAN;
   res.last_success = NAN;
   double shown_return = NAN, shown_success = NAN;
@@ -324,28 +399,51 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     s.steps += s.cfg.batch();
     const double iter = now() - t_iter;
     s.wall += iter;
-    auto es = env.take_stats();
-    const double ep = static_cast<double>(es.episodes);
+    const std::vector<tasks::EpisodeStats> per = env.take_stats();
+    recent.add(per);
+    // return, length and success: the mean over the entries whose episodes ended (one entry:
+    // the mean over episodes); per-entry columns for a suite
+    double ep = 0, ret = 0, len = 0, succ = 0, scaled = 0;
+    int64_t faults = 0;
+    int with = 0;
+    for (int g = 0; g < env.ngroups(); ++g) {
+      const auto& es = per[g];
+      faults += es.faults;
+      ep += static_cast<double>(es.episodes);
+      if (es.episodes == 0) continue;
+      const double n = static_cast<double>(es.episodes);
+      ret += es.return_sum / n;
+      len += es.length_sum / n;
+      succ += es.successes / n;
+      scaled += env.entry(g).reward_scale * es.return_sum / n;
+      with += 1;
+    }
+    const double mean_return = with ? ret / with : NAN, mean_success = with ? succ / with : NAN;
     std::vector<double> row = {double(s.update), double(s.steps), s.wall,
                                s.cfg.batch() / iter, s.cfg.batch() / std::max(sim_s, 1e-9), ep,
-                               ep > 0 ? es.return_sum / ep : NAN,
-                               ep > 0 ? es.length_sum / ep : NAN,
-                               ep > 0 ? es.successes / ep : NAN};
-    for (double t : es.term_sums) row.push_back(ep > 0 ? t / ep : NAN);
+                               mean_return, with ? len / with : NAN, mean_success};
+    if (env.ngroups() == 1) {
+      for (double t : per[0].term_sums) row.push_back(ep > 0 ? t / ep : NAN);
+    } else {
+      row.push_back(with ? scaled / with : NAN);
+      for (auto& es : per) row.push_back(es.episodes ? es.return_sum / es.episodes : NAN);
+      for (auto& es : per)
+        row.push_back(es.episodes ? static_cast<double>(es.successes) / es.episodes : NAN);
+    }
     double action_std = 0;
     {
       torch::NoGradGuard ng;
       action_std = torch::exp(s.model->log_std()).mean().item<double>();
     }
     for (double x : {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
-                     action_std, double(es.faults)})
+                     action_std, double(faults)})
       row.push_back(x);
     log.append(row);
-    if (ep > 0) {
-      shown_return = es.return_sum / ep;
-      shown_success = es.successes / ep;
+    if (with > 0) {
+      shown_return = mean_return;
+      shown_success = mean_success;
     }
-    if (s.update % s.cfg.plot_interval == 0) log.plot(s.cfg.task + " (PPO)");
+    if (s.update % s.cfg.plot_interval == 0) log.plot(title);
     if (s.update % s.cfg.save_interval == 0) s.save();
     if (bar) {
       bar->set_status("fps " + fmt("%.0f", s.cfg.batch() / iter) + " return " +
@@ -362,14 +460,20 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   if (bar) bar->finish();
   if (list_checkpoints(s.dir).empty() || s.last_checkpoint != checkpoint_path(s.dir, s.update))
     s.save();
-  log.plot(s.cfg.task + " (PPO)");
+  log.plot(title);
+  res.scores = recent.scores(env);
   res.updates = s.update;
   res.steps = s.steps;
   res.interrupted = stopped;
   res.last_return = shown_return;
   res.last_success = shown_success;
   res.checkpoint = s.last_checkpoint;
-  nlohmann::json summary = {{"task", s.cfg.task},
+  nlohmann::json scores = nlohmann::json::array();
+  auto or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+  for (auto& e : res.scores)
+    scores.push_back({{"label", e.label}, {"task", e.task}, {"episodes", e.episodes},
+                      {"mean_return", or_null(e.mean_return)}, {"success", or_null(e.success)}});
+  nlohmann::json summary = {{s.cfg.suite.empty() ? "task" : "suite", s.cfg.target()},
                             {"algo", s.cfg.algo},
                             {"updates", s.update},
                             {"steps", s.steps},
@@ -378,6 +482,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                             {"last_return", std::isfinite(shown_return) ? nlohmann::json(shown_return) : nlohmann::json()},
                             {"last_success", std::isfinite(shown_success) ? nlohmann::json(shown_success) : nlohmann::json()},
                             {"checkpoint", s.last_checkpoint},
+                            {"scores_last_10_updates", scores},
                             {"time", utc_now()}};
   write_file_atomic(s.dir + "/summary.json", summary.dump(2) + "\n");
   return res;
@@ -394,8 +499,8 @@ void write_run_json(const Session& s, const TrainOptions& opt, bool resumed) {
     }
   }
   if (!resumed) {
-    j["task"] = s.cfg.task;
-    j["task_version"] = s.env->spec().versioned_id();
+    j[s.cfg.suite.empty() ? "task" : "suite"] = s.cfg.target();
+    j["task_version"] = target_version(*s.env);
     j["algo"] = s.cfg.algo;
     j["seed"] = s.cfg.seed;
     j["config_hash"] = config_hash(s.yaml);
@@ -416,7 +521,11 @@ std::string default_run_dir(const TrainConfig& c) {
   std::time_t t = std::time(nullptr);
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y%m%d-%H%M%S", std::localtime(&t));
-  return "runs/" + c.task + "-" + c.algo + "-" + buf + "-s" + std::to_string(c.seed);
+  // a suite given as a file: its name without folder and extension
+  std::string name = c.target();
+  if (const size_t slash = name.rfind('/'); slash != std::string::npos) name = name.substr(slash + 1);
+  if (const size_t dot = name.rfind('.'); dot != std::string::npos && dot > 0) name.resize(dot);
+  return "runs/" + name + "-" + c.algo + "-" + buf + "-s" + std::to_string(c.seed);
 }
 
 TrainResult train_new(const std::string& resolved_yaml, const std::string& run_dir,
@@ -432,7 +541,8 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
   s.build(s.cfg.seed);
   write_file_atomic(run_dir + "/config.yaml", resolved_yaml);
   write_run_json(s, options, false);
-  MetricsLog log(run_dir, metric_columns(s.env->spec()));
+  if (options.on_start) options.on_start(s.cfg, run_dir);
+  MetricsLog log(run_dir, metric_columns(*s.env));
   return run_loop(s, log, options);
 }
 
@@ -452,7 +562,8 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
   load_into(s, cks.back());
   s.last_checkpoint = cks.back();
   write_run_json(s, options, true);
-  MetricsLog log = MetricsLog::resume(run_dir, metric_columns(s.env->spec()), s.update);
+  if (options.on_start) options.on_start(s.cfg, run_dir);
+  MetricsLog log = MetricsLog::resume(run_dir, metric_columns(*s.env), s.update);
   return run_loop(s, log, options);
 }
 
@@ -475,9 +586,13 @@ LoadedPolicy::LoadedPolicy(const std::string& run_dir, const std::string& checkp
     path = cks.back();
   }
   impl_->checkpoint = path;
-  const auto& spec = tasks::find_task(impl_->cfg.task).spec();
   const CheckpointMeta m = read_checkpoint_meta(path);
-  check_meta(m, path, impl_->cfg.task, spec.obs.dim(), spec.act.dim(), "run " + run_dir);
+  if (impl_->cfg.suite.empty()) {
+    const auto& spec = tasks::find_task(impl_->cfg.task).spec();
+    check_meta(m, path, impl_->cfg.task, spec.obs.dim(), spec.act.dim(), "run " + run_dir);
+  } else {  // a suite's widths are checked against its pack in evaluate
+    check_meta(m, path, impl_->cfg.suite, 0, 0, "run " + run_dir);
+  }
   impl_->meta = m;
   impl_->model = ActorCritic(m.obs_dim, m.act_dim, impl_->cfg.ppo);
   torch::serialize::InputArchive root, net;
@@ -509,25 +624,53 @@ void LoadedPolicy::act(const float* obs, int n, float* actions) {
 
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
   const auto& c = policy.config();
-  tasks::EnvOptions eo;
-  eo.nslot = episodes;
-  eo.threads = threads;
-  eo.seed = seed;
-  tasks::TaskEnv env(tasks::make_task(c.task, c.task_config), eo);
+  return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
+    if (env.obs_dim() != policy.obs_dim() || env.act_dim() != policy.act_dim())
+      throw Error("checkpoint " + policy.checkpoint() + " has observations " +
+                  std::to_string(policy.obs_dim()) + " and actions " +
+                  std::to_string(policy.act_dim()) + "; " + c.target() + " now has " +
+                  std::to_string(env.obs_dim()) + " and " + std::to_string(env.act_dim()));
+    return [&policy](const float* obs, int n, float* act) { policy.act(obs, n, act); };
+  });
+}
+
+EvalResult evaluate_random(const TrainConfig& c, int episodes, uint64_t seed, int threads) {
+  std::mt19937_64 rng(seed ^ 0x5DEECE66Dull);
+  return evaluate_actions(c, episodes, seed, threads, [&rng](const taskpack::TaskPack& env) {
+    const int A = env.act_dim();
+    return [&rng, A](const float*, int n, float* act) {
+      for (int64_t i = 0; i < int64_t(n) * A; ++i)
+        act[i] = static_cast<float>(sim::uniform(rng, -1, 1));
+    };
+  });
+}
+
+EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, int threads,
+                            const ActorFactory& make_actor) {
+  taskpack::PackOptions po;
+  po.threads = threads;
+  po.seed = seed;
+  taskpack::PackSpec ps = run_pack(c, episodes);
+  for (auto& e : ps.entries) e.slots = episodes;  // `episodes` per task of a suite
+  taskpack::TaskPack env(ps, po);
+  const Actor actor = make_actor(env);
   env.reset();
-  std::vector<float> act(size_t(episodes) * env.act_dim());
-  std::vector<double> ret(episodes, 0.0), done_ret(episodes, 0.0);
-  std::vector<int> len(episodes, 0), done_len(episodes, 0);
-  std::vector<uint8_t> finished(episodes, 0), succ(episodes, 0);
-  int left = episodes;
+  const int n = env.nslot();
+  std::vector<float> act(size_t(n) * env.act_dim());
+  std::vector<double> ret(n, 0.0), done_ret(n, 0.0);
+  std::vector<int> len(n, 0), done_len(n, 0);
+  std::vector<uint8_t> finished(n, 0), succ(n, 0);
+  int left = n;
   EvalResult r;
   while (left > 0) {
-    policy.act(env.obs.data(), episodes, act.data());
+    actor(env.obs.data(), n, act.data());
     env.step(act);
-    for (int s = 0; s < episodes; ++s) {
+    for (int s = 0; s < n; ++s) {
       if (env.fault[s]) r.faults += 1;
       if (finished[s]) continue;
-      ret[s] += env.reward[s];
+      // unscaled: the task's own reward (a suite's scale is for learning only)
+      const int g = env.group_of(s);
+      ret[s] += env.group(g).reward[s - env.group_begin(g)];
       len[s] += 1;
       if (env.terminated[s] || env.truncated[s]) {
         finished[s] = 1;
@@ -538,18 +681,35 @@ EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threa
       }
     }
   }
-  r.episodes = episodes;
-  double sum = 0, sq = 0, ls = 0, ss = 0;
-  for (int s = 0; s < episodes; ++s) {
-    sum += done_ret[s];
-    sq += done_ret[s] * done_ret[s];
-    ls += done_len[s];
-    ss += succ[s];
+  // per entry, then the mean over entries (one entry: over its episodes)
+  double mr = 0, ml = 0, ms = 0, sd = 0;
+  for (int g = 0; g < env.ngroups(); ++g) {
+    EntryScore e;
+    e.label = env.label(g);
+    e.task = env.entry(g).task;
+    double sum = 0, sq = 0, ls = 0, ss = 0;
+    const int b = env.group_begin(g), k = env.group(g).nslot();
+    for (int s = b; s < b + k; ++s) {
+      sum += done_ret[s];
+      sq += done_ret[s] * done_ret[s];
+      ls += done_len[s];
+      ss += succ[s];
+    }
+    e.episodes = k;
+    e.mean_return = sum / k;
+    e.success = ss / k;
+    mr += e.mean_return;
+    ms += e.success;
+    ml += ls / k;
+    sd += std::sqrt(std::max(0.0, sq / k - e.mean_return * e.mean_return));
+    r.per_task.push_back(e);
   }
-  r.mean_return = sum / episodes;
-  r.std_return = std::sqrt(std::max(0.0, sq / episodes - r.mean_return * r.mean_return));
-  r.mean_length = ls / episodes;
-  r.success_rate = ss / episodes;
+  const double G = env.ngroups();
+  r.episodes = n;
+  r.mean_return = mr / G;
+  r.std_return = sd / G;
+  r.mean_length = ml / G;
+  r.success_rate = ms / G;
   return r;
 }
 

@@ -6,19 +6,35 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "rl/config.h"
 
+namespace bidex::taskpack {
+class TaskPack;
+}
+
 namespace bidex::rl {
+
+// The mean return and success rate of one task of a run (a suite run has one per entry).
+struct EntryScore {
+  std::string label, task;
+  double mean_return = 0;   // NaN when no episode ended
+  double success = 0;       // NaN when no episode ended
+  int64_t episodes = 0;
+};
 
 struct TrainOptions {
   bool progress = true;           // the progress bar on stderr
   int64_t stop_after_updates = 0; // > 0: stop as Ctrl-C would after this many updates in total
   double time_limit_s = 0;        // > 0: stop as Ctrl-C would once this session trained this long
   std::string command;            // recorded in run.json
+  // Called once the run folder holds config.yaml and run.json, before the first step (bidex
+  // train records the run in the registry there).
+  std::function<void(const TrainConfig&, const std::string& run_dir)> on_start;
 };
 
 struct TrainResult {
@@ -28,6 +44,8 @@ struct TrainResult {
   double last_return = 0;         // mean return of the episodes of the last updates (NaN: none)
   double last_success = 0;
   std::string checkpoint;         // the newest checkpoint written
+  // Per task (a suite run: per entry), the episodes that ended in the last 10 updates.
+  std::vector<EntryScore> scores;
 };
 
 // Starts a new run in `run_dir` (created; an existing non-empty folder is an error, nothing in it
@@ -38,7 +56,7 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
 // Continues the run in `run_dir` from its newest checkpoint, up to its configured steps.
 TrainResult train_resume(const std::string& run_dir, const TrainOptions& options);
 
-// The default folder of a new run: runs/<task>-<algo>-<YYYYmmdd-HHMMSS>-s<seed>.
+// The default folder of a new run: runs/<task or suite>-<algo>-<YYYYmmdd-HHMMSS>-s<seed>.
 std::string default_run_dir(const TrainConfig& c);
 
 // A trained policy loaded from a run folder (its config.yaml and a checkpoint, default the
@@ -62,11 +80,25 @@ class LoadedPolicy {
 
 struct EvalResult {
   int episodes = 0;
+  // a task run: over its episodes; a suite run: the mean over the suite's tasks of theirs
   double mean_return = 0, std_return = 0, mean_length = 0, success_rate = 0;
   int64_t faults = 0;
+  std::vector<EntryScore> per_task;  // one per task (unscaled returns)
 };
 
-// Runs `episodes` slots for one episode each with the policy's mean action.
+// Runs `episodes` slots for one episode each with the policy's mean action (a suite run:
+// `episodes` per task of its train split).
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads);
+
+// The same with actions uniform in [-1, 1] (a random policy, drawn from `seed`): the reference
+// "random" score of a task or suite. Only the config's task or suite (and task_config) are used.
+EvalResult evaluate_random(const TrainConfig& config, int episodes, uint64_t seed, int threads);
+
+// The same with any actor: `make_actor` sees the pack once and returns the function that maps
+// n observation rows to n action rows.
+using Actor = std::function<void(const float* obs, int n, float* actions)>;
+using ActorFactory = std::function<Actor(const taskpack::TaskPack&)>;
+EvalResult evaluate_actions(const TrainConfig& config, int episodes, uint64_t seed, int threads,
+                            const ActorFactory& make_actor);
 
 }  // namespace bidex::rl

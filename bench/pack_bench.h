@@ -1,0 +1,26 @@
+// Packed throughput: slot-steps/s of a suite's pack (every task of its train split in one batched
+// instance, one parallel loop) against each of its tasks alone at the same slot count, measured
+// in one run with random actions. The target: packed >= 0.8 x the mean single-task rate.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+namespace bidex::bench {
+
+struct PackBenchConfig {
+  std::string suite = "MT20";   // suite id or file (its train split)
+  int slots = 2048;             // the pack's slots in all, and each single task's
+  int threads = 0;              // 0: all cores
+  double min_seconds = 3;       // timed stepping per measurement (after warm-up)
+  int warmup_steps = 5;
+  int rounds = 2;               // packed, singles, packed, singles...: the best of each kept
+  uint64_t seed = 1;
+  bool progress = true;
+};
+
+nlohmann::json run_pack_bench(const PackBenchConfig& cfg);
+
+}  // namespace bidex::bench

@@ -1,0 +1,196 @@
+// Multi-task PPO on a suite (bidex train --suite MT4 --algo mtppo) and the registry record of
+// every training run, through the API and the bidex binary: per-task metric columns, the one-hot
+// widened observation reaching the networks, evaluation per task, resume, and the bad inputs.
+#include "tests/rl/rl_fixture.h"
+
+#include "core/error.h"
+#include "registry/registry.h"
+#include "rl/checkpoint.h"
+#include "rl/metrics.h"
+#include "rl/trainer.h"
+#include "taskpack/pack.h"
+#include "taskpack/suite.h"
+
+using namespace bidex;
+
+namespace {
+rl::TrainOptions quiet() {
+  rl::TrainOptions o;
+  o.progress = false;
+  return o;
+}
+
+// A tiny multi-task run on a suite: 2 slots per task, small networks.
+std::string tiny_suite_yaml(const std::string& suite, std::vector<std::string> extra = {}) {
+  std::vector<std::string> o = {"env.slots=8",       "env.threads=1",         "train.steps=64",
+                                "ppo.hidden=[32]",   "ppo.horizon=8",         "ppo.minibatches=2",
+                                "ppo.epochs=1",      "train.save_interval=1", "train.device=cpu",
+                                "train.torch_threads=1"};
+  for (auto& e : extra) o.push_back(e);
+  return rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", suite, o);
+}
+
+std::vector<std::string> header(const std::string& dir) {
+  std::vector<std::string> cols;
+  std::vector<std::vector<double>> rows;
+  rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
+  return cols;
+}
+}  // namespace
+
+TEST_CASE("mtppo trains on a suite's pack with per-task metrics and a one-hot observation",
+          "[rl][mtppo]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("mt4");
+  const std::string yaml = tiny_suite_yaml("MT4", {"train.steps=640"});  // 10 updates of 64
+  CHECK(yaml.find("suite: MT4") != std::string::npos);
+  CHECK(yaml.find("hidden") != std::string::npos);
+  auto r = rl::train_new(yaml, dir, quiet());
+  CHECK(r.updates == 10);
+  // the pack of MT4: four tasks, two slots each, observations padded to the widest (446, two
+  // objects) plus a 4-wide one-hot
+  taskpack::PackSpec ps = taskpack::suite_pack(taskpack::load_suite("MT4"), "train", 8);
+  REQUIRE(ps.entries.size() == 4);
+  const auto m = rl::read_checkpoint_meta(rl::list_checkpoints(dir).back());
+  CHECK(m.task == "MT4");
+  CHECK(m.obs_dim == 446 + 4);
+  CHECK(m.act_dim == 52);
+  CHECK(m.task_version.rfind("MT4[", 0) == 0);
+  // one return and one success column per task, plus the scaled mean
+  const auto cols = header(dir);
+  for (auto& e : ps.entries) {
+    const std::string label = e.label.empty() ? e.task : e.label;
+    CHECK(std::count(cols.begin(), cols.end(), "return_" + label) == 1);
+    CHECK(std::count(cols.begin(), cols.end(), "success_" + label) == 1);
+  }
+  CHECK(std::count(cols.begin(), cols.end(), "scaled_return") == 1);
+  CHECK(std::count(cols.begin(), cols.end(), "term_pose") == 0);  // terms differ between tasks
+  // 80 steps per slot: every catch task (75 steps, or an earlier drop) ended episodes
+  REQUIRE(r.scores.size() == 4);
+  for (auto& s : r.scores) {
+    CHECK(s.episodes >= 2);
+    CHECK(std::isfinite(s.mean_return));
+  }
+  CHECK(read_file(dir + "/learning_curve.svg").find("per task") != std::string::npos);
+
+  // evaluation runs each task of the suite with the policy's mean action
+  rl::LoadedPolicy policy(dir);
+  auto ev = rl::evaluate(policy, 2, 7, 1);
+  REQUIRE(ev.per_task.size() == 4);
+  CHECK(ev.episodes == 8);
+  double mean = 0;
+  for (auto& e : ev.per_task) mean += e.mean_return / 4;
+  CHECK(ev.mean_return == Approx(mean));
+
+  // resume continues the suite run
+  auto r2 = rl::train_resume(dir, [] {
+    auto o = quiet();
+    return o;
+  }());
+  CHECK(r2.updates == 10);  // already at its configured steps: nothing more to do
+}
+
+TEST_CASE("mtppo's config is strict about suites and tasks", "[rl][mtppo]") {
+  // a task algorithm gets no suite, a suite algorithm no task and no task_config
+  CHECK_THROWS_AS(rl::parse_train_config("algo: mtppo\ntask: hand_over\n", "x.yaml"), ConfigError);
+  CHECK_THROWS_AS(rl::parse_train_config("algo: ppo\nsuite: MT4\n", "x.yaml"), ConfigError);
+  CHECK_THROWS_AS(tiny_suite_yaml("MT4", {"env.task_config=foo.yaml"}), ConfigError);
+  CHECK_THROWS_AS(taskpack::load_suite("MT5"), ConfigError);
+}
+
+TEST_CASE("bidex train records task and suite runs in the registry", "[rl][mtppo][registry]") {
+  test::TaskTempDir tmp;
+  const std::string reg = tmp.file("reg.sqlite");
+  const std::string common = " -o env.threads=1 -o ppo.hidden=[32] -o ppo.minibatches=2 "
+                             "-o ppo.epochs=1 -o train.device=cpu -o train.torch_threads=1 "
+                             "--registry " + reg;
+  auto a = test::bidex_run("train --task hand_over -o env.slots=4 -o train.steps=320 --run " +
+                           tmp.file("task") + common);
+  INFO(a.out);
+  REQUIRE(a.rc == 0);
+  CHECK(a.out.find("registry " + reg + ": run 1") != std::string::npos);
+  auto b = test::bidex_run("train --suite MT1 -o env.slots=8 -o train.steps=640 --run " +
+                           tmp.file("suite") + common);
+  INFO(b.out);
+  REQUIRE(b.rc == 0);
+  for (const char* label : {"original", "left", "right", "back"})
+    CHECK(b.out.find(label) != std::string::npos);  // the per-task table
+
+  registry::Registry r(reg);
+  auto runs = r.runs();
+  REQUIRE(runs.size() == 2);
+  const auto& t = runs[0].task == "hand_over" ? runs[0] : runs[1];
+  const auto& s = runs[0].task == "hand_over" ? runs[1] : runs[0];
+  CHECK(t.algo == "ppo");
+  CHECK(t.suite.empty());
+  CHECK(t.status == "finished");
+  CHECK(t.steps == 320);
+  CHECK_FALSE(t.code_version.empty());
+  CHECK(t.config_hash.size() == 16);
+  CHECK_FALSE(t.finished.empty());
+  CHECK(s.algo == "mtppo");
+  CHECK(s.suite == "MT1");
+  CHECK(s.task.empty());
+  CHECK(s.steps == 640);
+  auto scores = r.scores(s.id);
+  REQUIRE(scores.size() == 4);  // one per goal variant, all of catch_underarm
+  for (auto& sc : scores) CHECK(sc.task == "catch_underarm");
+
+  // a stopped run is recorded as stopped; --resume updates the same row
+  auto c = test::bidex_run("train --task hand_over -o env.slots=4 -o train.steps=320 "
+                           "--stop-after 2 --run " + tmp.file("staged") + common);
+  CHECK(c.rc == 130);
+  int64_t staged = 0;
+  for (auto& run : r.runs())
+    if (run.run_dir.find("staged") != std::string::npos) {
+      staged = run.id;
+      CHECK(run.status == "stopped");
+      CHECK(run.steps == 64);
+    }
+  REQUIRE(staged > 0);
+  auto d = test::bidex_run("train --resume " + tmp.file("staged") + " --registry " + reg);
+  INFO(d.out);
+  CHECK(d.rc == 0);
+  CHECK(r.runs().size() == 3);
+  for (auto& run : r.runs())
+    if (run.id == staged) {
+      CHECK(run.status == "finished");
+      CHECK(run.steps == 320);
+    }
+}
+
+TEST_CASE("bidex train and eval reject suite mistakes with clear messages", "[rl][mtppo]") {
+  test::TaskTempDir tmp;
+  auto both = test::bidex_run("train --task hand_over --suite MT4 --run " + tmp.file("x"));
+  CHECK(both.rc == 2);
+  CHECK(both.out.find("one of --task") != std::string::npos);
+  auto meta = test::bidex_run("train --suite ML4 --run " + tmp.file("x"));
+  CHECK(meta.rc == 2);
+  CHECK(meta.out.find("meta-learning suite") != std::string::npos);
+  auto ppo = test::bidex_run("train --suite MT4 --algo ppo --run " + tmp.file("x"));
+  CHECK(ppo.rc == 2);
+  CHECK(ppo.out.find("--algo mtppo") != std::string::npos);
+  auto unknown = test::bidex_run("train --suite MT7 --run " + tmp.file("x"));
+  CHECK(unknown.rc == 2);
+  CHECK(unknown.out.find("MT20") != std::string::npos);  // lists the known suites
+  CHECK_FALSE(test::file_exists(tmp.file("x")));
+
+  // a random policy's score, per task of a suite, stored as the reference of the task
+  const std::string reg = tmp.file("reg.sqlite");
+  auto rnd = test::bidex_run("eval --random --task hand_over --episodes 3 --threads 1 "
+                             "--set-reference --registry " + reg);
+  INFO(rnd.out);
+  REQUIRE(rnd.rc == 0);
+  registry::Registry r(reg);
+  bool found = false;
+  for (auto& ref : r.references())
+    if (ref.task == "hand_over" && ref.kind == "random") {
+      found = true;
+      CHECK(ref.source.find("3 episodes") != std::string::npos);
+    }
+  CHECK(found);
+  auto rs = test::bidex_run("eval --random --suite MT4 --episodes 2 --threads 1");
+  INFO(rs.out);
+  CHECK(rs.rc == 0);
+  CHECK(rs.out.find("two_catch_underarm") != std::string::npos);
+}
