@@ -1,6 +1,8 @@
 #include "core/yaml.h"
 
+#include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -27,9 +29,98 @@ std::array<double, N> fixed_list(const YamlView& v) {
 
 }  // namespace
 
+std::string path_beside(const std::string& file, const std::string& path) {
+  if (path.empty() || path[0] == '/') return path;
+  const size_t slash = file.rfind('/');
+  if (slash == std::string::npos) return path;
+  std::string out = file.substr(0, slash + 1);
+  out.append(path);
+  return out;
+}
+
+namespace {
+
+// The canonical path of an existing file (symlinks and ".." resolved), empty if there is none.
+std::string canonical(const std::string& path) {
+  char buf[PATH_MAX];
+  if (!::realpath(path.c_str(), buf)) return "";
+  return buf;
+}
+
+std::string key_list(const YAML::Node& map) {
+  std::string out;
+  for (auto it = map.begin(); it != map.end(); ++it) {
+    if (!out.empty()) out.append(", ");
+    out.append(it->first.as<std::string>());
+  }
+  return out;
+}
+
+// Merges `child` (a map of `child_file`) over `parent` in place: every key of the child must
+// exist in the parent; maps merge recursively, anything else replaces the parent's value.
+void overlay(YAML::Node parent, const YAML::Node& child, const std::string& child_file,
+             const std::string& parent_name, const std::string& path) {
+  for (auto it = child.begin(); it != child.end(); ++it) {
+    const std::string key = it->first.as<std::string>();
+    if (path.empty() && key == "extends") continue;
+    const std::string p = path.empty() ? key : path + "." + key;
+    const YAML::Node& cparent = parent;
+    YAML::Node old = cparent[key];
+    if (!old)
+      throw ConfigError(with_line(child_file, it->first), p,
+                        std::string("a key of ").append(parent_name).append(" {")
+                            .append(key_list(parent)).append("}"),
+                        std::string("unknown key '").append(key).append("'"));
+    if (old.IsMap() && it->second.IsMap())
+      overlay(old, it->second, child_file, parent_name, p);
+    else
+      parent[key] = it->second;
+  }
+}
+
+struct Loaded {
+  YAML::Node root;
+  std::string name;     // the file name for messages
+  bool merged = false;  // built from several files
+};
+
+// Loads `path`, following `extends`; `chain` holds the canonical paths of the files that
+// extend this one (for the cycle check).
+Loaded load_chain(const std::string& path, std::vector<std::string>& chain) {
+  Loaded out{YamlView::load_string(read_file(path), path).node(), path, false};
+  const YAML::Node& root = out.root;
+  if (!root.IsMap() || !root["extends"]) return out;
+  const YamlView ext(root["extends"], path, "extends");
+  const std::string rel = ext.as<std::string>();
+  const std::string parent = canonical(path_beside(path, rel));
+  if (parent.empty())
+    ext.fail("the path of a readable YAML file (relative to this file's folder)",
+             std::string("'").append(rel).append("', which does not exist"));
+  for (const auto& c : chain) {
+    if (c != parent) continue;
+    std::string cycle;
+    for (const auto& f : chain) cycle.append(f).append(" -> ");
+    cycle.append(parent);
+    ext.fail("a chain of files without a cycle", "the cycle " + cycle);
+  }
+  chain.push_back(parent);
+  Loaded base = load_chain(parent, chain);
+  chain.pop_back();
+  YamlView(base.root, base.name, "", !base.merged).expect_map();
+  overlay(base.root, out.root, path, base.name, "");
+  std::string name = path;
+  name.append(" (extends ").append(base.name).append(")");
+  return {base.root, name, true};
+}
+
+}  // namespace
+
 YamlView YamlView::load_file(const std::string& path) {
-  std::string text = read_file(path);
-  return load_string(text, path);
+  std::vector<std::string> chain;
+  const std::string self = canonical(path);
+  if (!self.empty()) chain.push_back(self);
+  Loaded l = load_chain(path, chain);
+  return YamlView(l.root, l.name, "", !l.merged);
 }
 
 YamlView YamlView::load_string(const std::string& text, const std::string& name) {
@@ -51,8 +142,12 @@ std::string YamlView::repr() const {
   return "'" + s + "'";
 }
 
+std::string YamlView::where(const YAML::Node& node) const {
+  return lines_ ? with_line(file_, node) : file_;
+}
+
 void YamlView::fail(const std::string& expected, const std::string& actual) const {
-  throw ConfigError(with_line(file_, node_), path_.empty() ? "(top level)" : path_, expected,
+  throw ConfigError(where(node_), path_.empty() ? "(top level)" : path_, expected,
                     actual);
 }
 
@@ -68,22 +163,22 @@ YamlView YamlView::child(const std::string& key) const {
   expect_map();
   YAML::Node c = node_[key];
   std::string p = path_.empty() ? key : path_ + "." + key;
-  if (!c) throw ConfigError(with_line(file_, node_), p, "a value for the required key", "none");
-  return YamlView(c, file_, p);
+  if (!c) throw ConfigError(where(node_), p, "a value for the required key", "none");
+  return YamlView(c, file_, p, lines_);
 }
 
 std::optional<YamlView> YamlView::maybe(const std::string& key) const {
   expect_map();
   YAML::Node c = node_[key];
   if (!c) return std::nullopt;
-  return YamlView(c, file_, path_.empty() ? key : path_ + "." + key);
+  return YamlView(c, file_, path_.empty() ? key : path_ + "." + key, lines_);
 }
 
 std::vector<YamlView> YamlView::items() const {
   expect_seq();
   std::vector<YamlView> out;
   for (size_t i = 0; i < node_.size(); ++i)
-    out.emplace_back(node_[i], file_, path_ + "[" + std::to_string(i) + "]");
+    out.emplace_back(node_[i], file_, path_ + "[" + std::to_string(i) + "]", lines_);
   return out;
 }
 
@@ -104,7 +199,7 @@ void YamlView::allow_keys(std::initializer_list<std::string_view> allowed) const
     std::string list;
     for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
     std::string p = path_.empty() ? k : path_ + "." + k;
-    throw ConfigError(with_line(file_, it->first), p, "one of the keys {" + list + "}",
+    throw ConfigError(where(it->first), p, "one of the keys {" + list + "}",
                       "unknown key '" + k + "'");
   }
 }

@@ -1,6 +1,13 @@
 // Strict YAML reading: every value is read through a YamlView that knows the file and the key
 // path, so every error names the file, the key, what was expected and what was found. Unknown
 // keys are errors (allow_keys).
+//
+// A file may build on another: a top-level `extends: PATH` (relative to the file's folder) reads
+// PATH first and merges this file's other keys over it. The overlay is strict: every key it sets
+// must exist in the parent (a misspelt key is an error, never a silent addition); maps merge key
+// by key, recursively; a list or a scalar replaces the parent's value whole. Parents may extend
+// further files; a cycle is an error. Views of such a file name it "child.yaml (extends
+// parent.yaml)" and give no line numbers (a merged value may come from either file).
 #pragma once
 
 #include <array>
@@ -18,13 +25,15 @@ namespace bidex {
 
 class YamlView {
  public:
-  // Parses a file; a missing file is an IoError, a syntax error a ConfigError with its line.
+  // Parses a file (following `extends`, see above); a missing file is an IoError, a syntax
+  // error a ConfigError with its line.
   static YamlView load_file(const std::string& path);
   // Parses text; `name` stands in for the file name in messages.
   static YamlView load_string(const std::string& text, const std::string& name);
 
-  YamlView(YAML::Node node, std::string file, std::string path)
-      : node_(std::move(node)), file_(std::move(file)), path_(std::move(path)) {}
+  // `lines`: whether messages add the node's line to the file name (false for merged files).
+  YamlView(YAML::Node node, std::string file, std::string path, bool lines = true)
+      : node_(std::move(node)), file_(std::move(file)), path_(std::move(path)), lines_(lines) {}
 
   const std::string& file() const { return file_; }
   const std::string& path() const { return path_; }
@@ -64,10 +73,17 @@ class YamlView {
   std::string repr() const;
 
  private:
+  std::string where(const YAML::Node& node) const;  // file_, with the node's line if known
+
   YAML::Node node_;
   std::string file_;
   std::string path_;
+  bool lines_ = true;
 };
+
+// `path` as seen from the folder of `file` (unchanged when absolute or when `file` has no
+// folder part): how `extends` and other file references inside a YAML file are resolved.
+std::string path_beside(const std::string& file, const std::string& path);
 
 // supported conversions
 template <> double YamlView::as<double>() const;

@@ -203,62 +203,63 @@ void sync_slot(const SimModel& model, SimBatch& b, int s) {
   write_outputs(d, b, s);
 }
 
-void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* post,
-          const std::function<void(int)>* pre) {
+void step_slot(const SimModel& model, SimBatch& b, int s) {
   const mjModel* m = model.mj();
   const int substeps = model.physics().substeps;
   const double max_speed = model.physics().max_speed;
   const int nu = m->nu, nw = b.base_wrench_width;
+  mjData* d = b.data_[s];
+  const double* ctrl = b.ctrl.data() + static_cast<size_t>(s) * nu;
+  const double* wrench = b.base_wrench.data() + static_cast<size_t>(s) * nw;
+  uint32_t f = kFaultNone;
 
+  // 1. inputs
+  if (!all_finite(ctrl, nu) || !all_finite(wrench, nw)) {
+    f |= kFaultBadInput;
+  } else {
+    // 2. physics: step2 then step1 keeps positions, velocities and sensors consistent with
+    // the new state at the end (same cost as mj_step)
+    const double t0 = d->time;
+    try {
+      apply_inputs(model, d, ctrl, wrench);
+      for (int k = 0; k < substeps; ++k) {
+        if (k > 0) update_base_wrench(model, d, wrench);  // the pivot moves with the base
+        mj_step2(m, d);
+        mj_step1(m, d);
+      }
+    } catch (const MujocoError&) {
+      f |= kFaultMujocoError;
+    }
+
+    // 3. faults (MuJoCo resets a slot itself on a bad acceleration: time goes back)
+    if (f == kFaultNone) {
+      if (!all_finite(d->qpos, m->nq) || !all_finite(d->qvel, m->nv) ||
+          !all_finite(d->qacc, m->nv))
+        f |= kFaultNonFinite;
+      double vmax = 0;
+      for (int i = 0; i < m->nv; ++i) vmax = std::max(vmax, std::abs(d->qvel[i]));
+      if (vmax > max_speed) f |= kFaultExploded;
+      if (warning_total(d) != b.warnings_seen_[s] || d->time < t0) f |= kFaultMujocoWarn;
+    }
+  }
+
+  // 4. outputs, or a reset of a faulty slot
+  b.fault[s] = f;
+  if (f != kFaultNone) {
+    b.fault_count[s] += 1;
+    reset_slot(model, b, s);
+  } else {
+    write_outputs(d, b, s);
+  }
+}
+
+void step(const SimModel& model, SimBatch& b, const std::function<void(int)>* post,
+          const std::function<void(int)>* pre) {
 #pragma omp parallel for schedule(static) num_threads(b.threads())
   for (int s = 0; s < b.nslot(); ++s) {
     if (pre) (*pre)(s);
-    mjData* d = b.data_[s];
-    const double* ctrl = b.ctrl.data() + static_cast<size_t>(s) * nu;
-    const double* wrench = b.base_wrench.data() + static_cast<size_t>(s) * nw;
-    uint32_t f = kFaultNone;
-
-    // 1. inputs
-    if (!all_finite(ctrl, nu) || !all_finite(wrench, nw)) {
-      f |= kFaultBadInput;
-    } else {
-      // 2. physics: step2 then step1 keeps positions, velocities and sensors consistent with
-      // the new state at the end (same cost as mj_step)
-      const double t0 = d->time;
-      try {
-        apply_inputs(model, d, ctrl, wrench);
-        for (int k = 0; k < substeps; ++k) {
-          if (k > 0) update_base_wrench(model, d, wrench);  // the pivot moves with the base
-          mj_step2(m, d);
-          mj_step1(m, d);
-        }
-      } catch (const MujocoError&) {
-        f |= kFaultMujocoError;
-      }
-
-      // 3. faults (MuJoCo resets a slot itself on a bad acceleration: time goes back)
-      if (f == kFaultNone) {
-        if (!all_finite(d->qpos, m->nq) || !all_finite(d->qvel, m->nv) ||
-            !all_finite(d->qacc, m->nv))
-          f |= kFaultNonFinite;
-        double vmax = 0;
-        for (int i = 0; i < m->nv; ++i) vmax = std::max(vmax, std::abs(d->qvel[i]));
-        if (vmax > max_speed) f |= kFaultExploded;
-        if (warning_total(d) != b.warnings_seen_[s] || d->time < t0) f |= kFaultMujocoWarn;
-      }
-    }
-
-    // 4. outputs, or a reset of a faulty slot
-    b.fault[s] = f;
-    if (f != kFaultNone) {
-      b.fault_count[s] += 1;
-      reset_slot(model, b, s);
-    } else {
-      write_outputs(d, b, s);
-    }
-
-    // 5. per-slot work of the caller
-    if (post) (*post)(s);
+    step_slot(model, b, s);  // 1-4
+    if (post) (*post)(s);    // 5. per-slot work of the caller
   }
 }
 

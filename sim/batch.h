@@ -105,6 +105,7 @@ class SimBatch {
  private:
   friend void step(const SimModel&, SimBatch&, const std::function<void(int)>*,
                    const std::function<void(int)>*);
+  friend void step_slot(const SimModel&, SimBatch&, int);
   friend void reset_slot(const SimModel&, SimBatch&, int, bool);
   friend void sync_slot(const SimModel&, SimBatch&, int);
 
@@ -125,6 +126,12 @@ class SimBatch {
 void step(const SimModel& model, SimBatch& batch,
           const std::function<void(int)>* post = nullptr,
           const std::function<void(int)>* pre = nullptr);
+
+// Steps 1-4 of `step` for one slot (inputs, substeps, faults, outputs or the reset of a faulty
+// slot), for callers that run their own parallel loop (a pack of several tasks steps the slots
+// of all its batches in one loop). Touches nothing but the slot's own rows and data, so slots
+// may be stepped concurrently and in any order; never throws for bad state.
+void step_slot(const SimModel& model, SimBatch& batch, int slot);
 
 // Puts one slot back to the scene's initial state (hands at their placements, joints at 0 inside
 // their ranges, targets at the current joints, zero velocity), advances its episode counter,

@@ -103,8 +103,11 @@ class TaskPack {
   std::vector<std::string> labels_;
   std::vector<int> begin_;
   std::vector<std::vector<uint8_t>> keep_;
+  std::vector<int> slot_group_;  // entry of each pack slot
   int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, obs_pad_ = 0, one_hot_ = 0;
   int threads_ = 1;
+  bool profile_on_ = false;
+  tasks::StageProfile wall_;     // steps and wall time of the pack's steps
 };
 
 }  // namespace bidex::taskpack

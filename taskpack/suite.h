@@ -22,6 +22,7 @@ struct Suite {
   std::string id;             // "MT4"
   std::string file;           // the YAML it came from
   std::string description;
+  std::string source;         // where the definition comes from, in words
   PackMode mode = PackMode::kMultiTask;
   std::vector<SuiteEntry> train;
   std::vector<SuiteEntry> test;   // multi-task suites: the train entries

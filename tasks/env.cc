@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
-#include <functional>
 
 #include <omp.h>
 
@@ -66,7 +65,9 @@ TaskEnv::TaskEnv(std::unique_ptr<Task> task, const EnvOptions& o) : task_(std::m
   done_terms_.assign(n * nterms_, 0.0);
   done_length_.assign(n, 0);
   stats_.term_sums.assign(nterms_, 0.0);
-  thread_times_.assign(static_cast<size_t>(omp_get_max_threads() + 1) * kPad, 0.0);
+  // one row per thread that may step a slot (a pack's loop runs with the batch's thread count)
+  thread_times_.assign(
+      static_cast<size_t>(std::max(omp_get_max_threads(), batch_->threads()) + 1) * kPad, 0.0);
   reset();
 }
 
@@ -165,21 +166,41 @@ void TaskEnv::step(const std::vector<float>& actions) {
 }
 
 void TaskEnv::step(const float* actions) {
-  const double w0 = profile_on_ ? now() : 0;
+  begin_step(actions);
+#pragma omp parallel for schedule(static) num_threads(batch_->threads())
+  for (int s = 0; s < nslot_; ++s) step_slot(s);
+  end_step();
+}
+
+void TaskEnv::begin_step(const float* actions, int stride) {
+  if (stride == 0) stride = act_dim_;
+  if (stride < act_dim_)
+    throw Error(spec().id + ": an action stride of " + std::to_string(stride) +
+                " floats, narrower than the task's " + std::to_string(act_dim_) + " actions");
+  step_t0_ = profile_on_ ? now() : 0;
   actions_ = actions;
-  const std::function<void(int)> pre = [this](int s) {
+  action_stride_ = stride;
+}
+
+void TaskEnv::step_slot(int s) {
+  // 1. actions -> the slot's ctrl and base wrench rows
+  {
     const double t0 = profile_on_ ? now() : 0;
     SlotState& st = state_[s];
-    const float* a = actions_ + static_cast<size_t>(s) * act_dim_;
+    const float* a = actions_ + static_cast<size_t>(s) * action_stride_;
     for (int k = 0; k < act_dim_; ++k) st.action[k] = std::clamp(a[k], -1.0f, 1.0f);
     TaskSlot t = slot(s);
     task_->apply_actions(st.action.data(), t);
     if (profile_on_) thread_times_[omp_get_thread_num() * kPad] += now() - t0;
-  };
-  const std::function<void(int)> post = [this](int s) { post_step(s); };
-  sim::step(*model_, *batch_, &post, &pre);
-  actions_ = nullptr;
+  }
+  // 2. physics (and the reset of a faulty slot)
+  sim::step_slot(*model_, *batch_, s);
+  // 3-5. evaluate, reset of a finished slot, observe
+  post_step(s);
+}
 
+void TaskEnv::end_step() {
+  actions_ = nullptr;
   // episode records, in slot order (the same totals for any thread count)
   for (int s = 0; s < nslot_; ++s) {
     if (fault[s]) stats_.faults += 1;
@@ -195,7 +216,7 @@ void TaskEnv::step(const float* actions) {
   }
   if (profile_on_) {
     profile_.steps += 1;
-    profile_.wall += now() - w0;
+    profile_.wall += now() - step_t0_;
   }
 }
 

@@ -1,6 +1,6 @@
 // TaskEnv: one task on N slots. Owns the compiled scene, the simulation batch, the per-slot task
 // state and the float32 buffers that learning code reads. One call to step() runs, per slot and
-// inside one parallel loop over slots (tasks/README.md):
+// inside one parallel loop over slots (tasks/README.md; step_slot is one slot's part):
 //   1. apply_actions  2. physics (substeps)  3. evaluate: reward terms, termination, success
 //   4. reset of finished slots  5. observe
 // Same seed and actions => bitwise identical results for any thread count.
@@ -76,6 +76,19 @@ class TaskEnv {
   void step(const float* actions);
   void step(const std::vector<float>& actions);
 
+  // step() in three parts, for callers that run their own parallel loop over the slots of
+  // several envs (taskpack::TaskPack): begin_step, then step_slot(s) once for every slot (any
+  // order, any threads, concurrently), then end_step. step() is exactly
+  // begin_step(actions); parallel for s: step_slot(s); end_step().
+  // `stride`: floats between the action rows of consecutive slots (0: act_dim); `actions` must
+  // stay valid until end_step.
+  void begin_step(const float* actions, int stride = 0);
+  // Slot s's part of the step: clip and apply its actions, physics (sim::step_slot), evaluate,
+  // reset when finished, observe. Runs inside the caller's parallel loop; never throws.
+  void step_slot(int s);
+  // Episode records of the slots that finished, in slot order; the step's profile.
+  void end_step();
+
   // Results of the last step (rows per slot).
   std::vector<float> obs;          // nslot x obs_dim: after the reset of finished slots, clipped
   std::vector<float> final_obs;    // nslot x obs_dim: for finished slots, before their reset
@@ -102,6 +115,8 @@ class TaskEnv {
   int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, nterms_ = 0, episode_length_ = 0;
   std::vector<SlotState> state_;
   const float* actions_ = nullptr;
+  int action_stride_ = 0;
+  double step_t0_ = 0;
   // per-slot episode accumulators and the record of an episode that ended this step
   std::vector<double> ep_return_, ep_terms_, done_return_, done_terms_;
   std::vector<int> done_length_;

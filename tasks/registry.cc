@@ -34,6 +34,7 @@ const std::vector<TaskEntry>& task_registry() {
 const std::vector<TaskEntry>& variant_registry() {
   static const std::vector<TaskEntry> all = {
       {catch_underarm_raise_spec, make_catch_underarm_raise},
+      {hand_over_free_spec, make_hand_over_free},
   };
   return all;
 }

@@ -16,7 +16,8 @@ struct TaskEntry {
 
 // The paper's tasks, in the paper's order.
 const std::vector<TaskEntry>& task_registry();
-// Reduced variants of them (TaskSpec::variant_of), e.g. for learning tests in CI.
+// Variants of them (TaskSpec::variant_of): reduced tasks for learning tests in CI, and the
+// free-base hand_over of the MT4/ML4 suites.
 const std::vector<TaskEntry>& variant_registry();
 // The entry of a task or variant id; throws ConfigError listing the known ids.
 const TaskEntry& find_task(const std::string& id);
@@ -50,6 +51,7 @@ BIDEX_TASK(block_stack)
 BIDEX_TASK(pour_water)
 BIDEX_TASK(grasp_and_place)
 BIDEX_TASK(catch_underarm_raise)
+BIDEX_TASK(hand_over_free)
 #undef BIDEX_TASK
 
 }  // namespace bidex::tasks

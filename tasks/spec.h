@@ -72,8 +72,9 @@ struct TaskSpec {
   Layout obs, act;
   std::vector<AgentSpec> agents;
   std::vector<RewardTermSpec> reward_terms;  // the reward is the sum of these terms
-  // Empty for the paper's twenty tasks; for a reduced variant (e.g. a small task that learns in
-  // CI), the id of the task it is cut down from. Variants are never part of a suite.
+  // Empty for the paper's twenty tasks; for a variant, the id of the task it derives from: a
+  // reduced task that learns in CI (never in a suite), or a suite's form of a task
+  // (hand_over_free: hand_over with the free bases of the MT4/ML4 suites).
   std::string variant_of;
 
   std::string versioned_id() const { return id + "-v" + std::to_string(version); }

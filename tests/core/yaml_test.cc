@@ -1,6 +1,9 @@
 // core/yaml: strict YAML views whose every error names the file, key path, expected and actual.
 #include "core/yaml.h"
 
+#include <climits>
+#include <cstdlib>
+
 #include <catch2/catch.hpp>
 
 #include "core/error.h"
@@ -179,5 +182,126 @@ TEST_CASE("YAML syntax errors and missing files", "[core][yaml]") {
     CHECK(v.file() == path);
     auto e = config_error([&] { v.req<double>("x"); });
     check_config_error(e, path, "x", "a number", "[1, 2]");
+  }
+}
+
+// ---- extends: a file as its parent with this file's keys merged over it ------------------------
+
+namespace {
+
+const char* kParent = R"(name: base
+count: 3
+list: [1, 2, 3]
+object: egg
+nested:
+  a: 1
+  b: {x: 1, y: 2}
+  c: [4, 5]
+)";
+
+std::string realpath_of(const std::string& p) {
+  char buf[PATH_MAX];
+  REQUIRE(::realpath(p.c_str(), buf) != nullptr);
+  return buf;
+}
+
+}  // namespace
+
+TEST_CASE("extends merges a file's keys over its parent's", "[core][yaml]") {
+  bidex::test::TempDir dir;
+  const std::string parent = dir.file("parent.yaml");
+  bidex::write_file_atomic(parent, kParent);
+  const std::string child = dir.file("child.yaml");
+  bidex::write_file_atomic(child, "extends: parent.yaml\ncount: 7\nlist: [9]\n"
+                                  "object: {type: mjcf, file: body.xml}\n"
+                                  "nested:\n  b: {y: 20}\n  c: []\n");
+  const YamlView v = YamlView::load_file(child);
+  CHECK(v.file() == child + " (extends " + realpath_of(parent) + ")");
+  // the parent's keys, in the parent's order; no `extends`
+  CHECK(v.keys() == std::vector<std::string>{"name", "count", "list", "object", "nested"});
+  CHECK(v.req<std::string>("name") == "base");                    // kept
+  CHECK(v.req<int>("count") == 7);                                // scalar replaced
+  CHECK(v.req<std::vector<double>>("list") == std::vector<double>{9});  // list replaced whole
+  CHECK(v.child("object").req<std::string>("type") == "mjcf");    // a map over a scalar
+  const YamlView n = v.child("nested");
+  CHECK(n.req<int>("a") == 1);                                    // maps merge key by key
+  CHECK(n.child("b").req<int>("x") == 1);
+  CHECK(n.child("b").req<int>("y") == 20);
+  CHECK(n.child("c").items().empty());
+  // messages name the merged file, without a line number (the value may come from either file)
+  auto e = config_error([&] { v.req<double>("name"); });
+  check_config_error(e, child + " (extends ", "name", "a number", "'base'");
+  CHECK(e.file() == v.file());
+  auto e2 = config_error([&] { n.child("b").allow_keys({"x"}); });
+  CHECK(e2.file() == v.file());
+  CHECK(e2.key() == "nested.b.y");
+
+  SECTION("a file without extends keeps its lines") {
+    auto p = YamlView::load_file(parent);
+    CHECK(p.file() == parent);
+    CHECK(config_error([&] { p.req<double>("name"); }).file() == parent + ":1");
+  }
+  SECTION("chains: a grandchild over the merged child") {
+    const std::string sub = dir.file("sub");
+    bidex::write_file_atomic(sub + "/grandchild.yaml",
+                             "extends: ../child.yaml\nnested: {a: 5}\ncount: 8\n");
+    const YamlView g = YamlView::load_file(sub + "/grandchild.yaml");
+    CHECK(g.file() == sub + "/grandchild.yaml (extends " + realpath_of(child) + " (extends " +
+                           realpath_of(parent) + "))");
+    CHECK(g.req<int>("count") == 8);
+    CHECK(g.child("nested").req<int>("a") == 5);
+    CHECK(g.child("nested").child("b").req<int>("y") == 20);  // from the child
+    CHECK(g.req<std::vector<double>>("list") == std::vector<double>{9});
+  }
+}
+
+TEST_CASE("extends is strict: unknown keys, missing parents and cycles are errors",
+          "[core][yaml]") {
+  bidex::test::TempDir dir;
+  const std::string parent = dir.file("parent.yaml");
+  bidex::write_file_atomic(parent, kParent);
+  SECTION("a key the parent lacks names this file, the key path and the parent's keys") {
+    const std::string child = dir.file("typo.yaml");
+    bidex::write_file_atomic(child, "extends: parent.yaml\nnested:\n  b: {x: 2, z: 3}\n");
+    auto e = config_error([&] { YamlView::load_file(child); });
+    check_config_error(e, child, "nested.b.z", "a key of " + realpath_of(parent) + " {x, y}",
+                       "unknown key 'z'");
+    CHECK(e.file() == child + ":3");
+    const std::string top = dir.file("top.yaml");
+    bidex::write_file_atomic(top, "extends: parent.yaml\ncolour: red\n");
+    auto e2 = config_error([&] { YamlView::load_file(top); });
+    check_config_error(e2, top, "colour", "{name, count, list, object, nested}",
+                       "unknown key 'colour'");
+  }
+  SECTION("a missing parent names this file and `extends`") {
+    const std::string child = dir.file("orphan.yaml");
+    bidex::write_file_atomic(child, "extends: nowhere/parent.yaml\ncount: 1\n");
+    auto e = config_error([&] { YamlView::load_file(child); });
+    check_config_error(e, child, "extends", "a readable YAML file", "'nowhere/parent.yaml'");
+  }
+  SECTION("extends must be a path") {
+    const std::string child = dir.file("list.yaml");
+    bidex::write_file_atomic(child, "extends: [parent.yaml]\n");
+    auto e = config_error([&] { YamlView::load_file(child); });
+    check_config_error(e, child, "extends", "a string", "[parent.yaml]");
+  }
+  SECTION("a cycle, and a file extending itself") {
+    bidex::write_file_atomic(dir.file("a.yaml"), "extends: b.yaml\ncount: 1\n");
+    bidex::write_file_atomic(dir.file("b.yaml"), "extends: a.yaml\ncount: 2\n");
+    auto e = config_error([&] { YamlView::load_file(dir.file("a.yaml")); });
+    CHECK(e.key() == "extends");
+    CHECK(e.expected() == "a chain of files without a cycle");
+    CHECK(e.actual().find("a.yaml -> ") != std::string::npos);
+    bidex::write_file_atomic(dir.file("self.yaml"), "extends: ./self.yaml\ncount: 1\n");
+    auto e2 = config_error([&] { YamlView::load_file(dir.file("self.yaml")); });
+    CHECK(e2.key() == "extends");
+    CHECK(e2.actual().find("cycle") != std::string::npos);
+  }
+  SECTION("the parent must be a map") {
+    bidex::write_file_atomic(dir.file("seq.yaml"), "[1, 2]\n");
+    bidex::write_file_atomic(dir.file("over_seq.yaml"), "extends: seq.yaml\n");
+    auto e = config_error([&] { YamlView::load_file(dir.file("over_seq.yaml")); });
+    CHECK(e.expected() == "a mapping of keys to values");
+    CHECK(e.file().find("seq.yaml") != std::string::npos);
   }
 }

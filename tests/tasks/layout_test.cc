@@ -151,11 +151,40 @@ TEST_CASE("the registry holds the paper's twenty tasks in the canonical table's 
   }
   CHECK(got == ids);
   // variants are found by id but are not among the twenty
+  std::vector<std::string> variants;
   for (auto& e : tasks::variant_registry()) {
+    variants.push_back(e.spec().id);
     CHECK_FALSE(e.spec().variant_of.empty());
     CHECK(std::find(ids.begin(), ids.end(), e.spec().id) == ids.end());
+    CHECK(std::find(ids.begin(), ids.end(), e.spec().variant_of) != ids.end());
     CHECK(&tasks::find_task(e.spec().id) == &e);
   }
+  CHECK(variants == std::vector<std::string>{"catch_underarm_raise", "hand_over_free"});
+}
+
+TEST_CASE("hand_over_free is hand_over with catch_underarm's free-base layouts",
+          "[tasks][layout]") {
+  const tasks::TaskSpec& v = tasks::find_task("hand_over_free").spec();
+  const tasks::TaskSpec& ho = tasks::find_task("hand_over").spec();
+  const tasks::TaskSpec& cu = tasks::find_task("catch_underarm").spec();
+  CHECK(v.variant_of == "hand_over");
+  CHECK(v.free_base);
+  CHECK(v.obs.dim() == 422);
+  CHECK(v.act.dim() == 52);
+  CHECK(v.age.text == ho.age.text);
+  CHECK(v.difficulty == ho.difficulty);
+  CHECK(v.skill == ho.skill);
+  CHECK(v.episode_length == ho.episode_length);
+  REQUIRE(v.obs.slices().size() == cu.obs.slices().size());
+  for (size_t i = 0; i < v.obs.slices().size(); ++i) {
+    CHECK(v.obs.slices()[i].name == cu.obs.slices()[i].name);
+    CHECK(v.obs.slices()[i].start == cu.obs.slices()[i].start);
+    CHECK(v.obs.slices()[i].goal == cu.obs.slices()[i].goal);
+  }
+  std::vector<std::string> terms_v, terms_ho;
+  for (auto& t : v.reward_terms) terms_v.push_back(t.name);
+  for (auto& t : ho.reward_terms) terms_ho.push_back(t.name);
+  CHECK(terms_v == terms_ho);
 }
 
 // (the catch family's; every other family's test file checks its own tasks the same way)

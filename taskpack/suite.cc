@@ -1,0 +1,175 @@
+#include "taskpack/suite.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/yaml.h"
+#include "sim/hand_spec.h"
+#include "tasks/registry.h"
+
+namespace bidex::taskpack {
+
+std::vector<std::string> known_suites() { return {"MT1", "ML1", "MT4", "ML4", "MT20", "ML20"}; }
+
+namespace {
+
+// 'text' (built with append: GCC 12's -Wrestrict misfires on "'" + std::string)
+std::string quoted(const std::string& s) {
+  std::string q = "'";
+  q.append(s).append("'");
+  return q;
+}
+
+std::string suites_dir() { return sim::data_dir() + "/configs/suites"; }
+
+std::string join(const std::vector<std::string>& v) {
+  std::string out;
+  for (const auto& s : v) {
+    if (!out.empty()) out.append(", ");
+    out.append(s);
+  }
+  return out;
+}
+
+// One entry of a split: {task, label?, config?, reward_scale?}.
+SuiteEntry read_entry(const YamlView& v, const std::string& suite_file) {
+  v.allow_keys({"task", "label", "config", "reward_scale"});
+  SuiteEntry e;
+  {
+    const YamlView t = v.child("task");
+    e.task = t.as<std::string>();
+    try {
+      tasks::find_task(e.task);
+    } catch (const ConfigError& err) {
+      t.fail(err.expected(), err.actual());
+    }
+  }
+  e.label = e.task;
+  if (auto l = v.maybe("label")) {
+    e.label = l->as<std::string>();
+    if (e.label.empty()) l->fail("a non-empty label", "an empty string");
+  }
+  if (auto c = v.maybe("config")) {
+    const std::string rel = c->as<std::string>();
+    e.config = path_beside(suite_file, rel);
+    if (rel.empty() || ::access(e.config.c_str(), R_OK) != 0)
+      c->fail("a readable task YAML (relative to the suite file's folder)",
+              quoted(rel).append(" (").append(e.config).append(" cannot be read)"));
+  }
+  if (auto r = v.maybe("reward_scale")) {
+    e.reward_scale = r->as<double>();  // finite, or a ConfigError
+    if (e.reward_scale < 0) r->fail("a reward scale >= 0", r->repr());
+  }
+  return e;
+}
+
+std::vector<SuiteEntry> read_split(const YamlView& v, const std::string& suite_file) {
+  if (!v.is_seq() || v.node().size() == 0) v.fail("a non-empty list of task entries", v.repr());
+  std::vector<SuiteEntry> out;
+  for (const auto& it : v.items()) out.push_back(read_entry(it, suite_file));
+  return out;
+}
+
+}  // namespace
+
+Suite load_suite(const std::string& id_or_file) {
+  const bool by_id = id_or_file.find('/') == std::string::npos &&
+                     !(id_or_file.size() > 5 &&
+                       id_or_file.compare(id_or_file.size() - 5, 5, ".yaml") == 0);
+  std::string file = id_or_file;
+  if (by_id) {
+    const auto ids = known_suites();
+    if (std::find(ids.begin(), ids.end(), id_or_file) == ids.end())
+      throw ConfigError("", "suite", std::string("a suite id (").append(join(ids)).append(") or the path of a suite YAML"),
+                        quoted(id_or_file));
+    file = suites_dir() + "/" + id_or_file + ".yaml";
+  }
+  const YamlView root = YamlView::load_file(file);
+  root.allow_keys({"id", "description", "mode", "source", "train", "test"});
+  Suite s;
+  s.file = file;
+  {
+    const YamlView v = root.child("id");
+    s.id = v.as<std::string>();
+    if (s.id.empty()) v.fail("a suite id", "an empty string");
+    if (by_id && s.id != id_or_file) v.fail(std::string("the id of the file's name, ").append(quoted(id_or_file)), v.repr());
+  }
+  s.description = root.req<std::string>("description");
+  s.source = root.req<std::string>("source");
+  {
+    const YamlView v = root.child("mode");
+    const std::string m = v.as<std::string>();
+    if (m == "multitask")
+      s.mode = PackMode::kMultiTask;
+    else if (m == "meta")
+      s.mode = PackMode::kMeta;
+    else
+      v.fail("multitask or meta", v.repr());
+  }
+  s.train = read_split(root.child("train"), file);
+  {
+    const YamlView v = root.child("test");
+    if (v.node().IsScalar() && v.node().as<std::string>() == "train") {
+      s.test = s.train;
+    } else if (s.mode == PackMode::kMultiTask) {
+      // the one-hot id of a slot is its train entry's index: a multi-task suite is tested on
+      // exactly its train entries
+      v.fail("'train' (a multitask suite is tested on its train entries)", v.repr());
+    } else {
+      s.test = read_split(v, file);
+    }
+  }
+  // labels are unique within the suite (a test list may not reuse a train label)
+  std::vector<std::string> seen;
+  auto check = [&](const std::vector<SuiteEntry>& list, const char* split) {
+    for (size_t i = 0; i < list.size(); ++i) {
+      if (std::find(seen.begin(), seen.end(), list[i].label) != seen.end())
+        root.child(split).items()[i].fail(
+            "a label unlike every other entry's (set `label` to tell entries apart)",
+            quoted(list[i].label).append(" a second time"));
+      seen.push_back(list[i].label);
+    }
+  };
+  check(s.train, "train");
+  if (!(root.child("test").node().IsScalar())) check(s.test, "test");
+  return s;
+}
+
+PackSpec suite_pack(const Suite& suite, const std::string& split, int total_slots) {
+  if (split != "train" && split != "test")
+    throw ConfigError(suite.file, "split", "train or test", quoted(split));
+  const auto& list = split == "train" ? suite.train : suite.test;
+  const int n = static_cast<int>(list.size());
+  if (n == 0) throw ConfigError(suite.file, split, "at least one entry", "none");
+  if (total_slots < n)
+    throw ConfigError(suite.file, "total_slots",
+                      "at least one slot per " + split + " entry (" + std::to_string(n) + ")",
+                      std::to_string(total_slots));
+  PackSpec p;
+  p.name = suite.id + "/" + split;
+  p.mode = suite.mode;
+  for (int i = 0; i < n; ++i) {
+    const SuiteEntry& e = list[i];
+    PackEntry pe;
+    pe.task = e.task;
+    pe.label = e.label;
+    pe.config = e.config;
+    pe.slots = total_slots / n + (i < total_slots % n ? 1 : 0);
+    pe.reward_scale = e.reward_scale;
+    p.entries.push_back(pe);
+  }
+  // one width over both splits: a policy trained on one split runs on the other
+  for (const auto* l : {&suite.train, &suite.test})
+    for (const auto& e : *l) {
+      const tasks::TaskSpec& ts = tasks::find_task(e.task).spec();
+      p.obs_pad = std::max(p.obs_pad, ts.obs.dim());
+      p.act_pad = std::max(p.act_pad, ts.act.dim());
+    }
+  p.one_hot = suite.mode == PackMode::kMultiTask ? static_cast<int>(suite.train.size()) : 0;
+  return p;
+}
+
+}  // namespace bidex::taskpack
