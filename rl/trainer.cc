@@ -650,8 +650,11 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;
-  taskpack::PackSpec ps = run_pack(c, episodes);
-  for (auto& e : ps.entries) e.slots = episodes;  // `episodes` per task of a suite
+  // `episodes` slots per task of a suite
+  const int entries =
+      c.suite.empty() ? 1 : static_cast<int>(taskpack::load_suite(c.suite).train.size());
+  taskpack::PackSpec ps = run_pack(c, episodes * entries);
+  for (auto& e : ps.entries) e.slots = episodes;
   taskpack::TaskPack env(ps, po);
   const Actor actor = make_actor(env);
   env.reset();

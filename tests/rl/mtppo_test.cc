@@ -55,7 +55,7 @@ TEST_CASE("mtppo trains on a suite's pack with per-task metrics and a one-hot ob
   CHECK(m.task == "MT4");
   CHECK(m.obs_dim == 446 + 4);
   CHECK(m.act_dim == 52);
-  CHECK(m.task_version.rfind("MT4[", 0) == 0);
+  CHECK(m.task_version.rfind("MT4/train[", 0) == 0);
   // one return and one success column per task, plus the scaled mean
   const auto cols = header(dir);
   for (auto& e : ps.entries) {
