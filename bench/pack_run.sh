@@ -3,7 +3,8 @@
 # access (16 cores): build from the bundled Debian packages, measure MT20 packed against each of
 # its twenty tasks alone at the same slot count (bidex bench pack), then each task's random-policy
 # return (bidex eval --random, one task at a time); results go to OUTDIR.
-#   bench/pack_run.sh OUTDIR DEPS [SLOTS] [EPISODES]
+#   bench/pack_run.sh OUTDIR DEPS [SLOTS] [EPISODES]   (EPISODES 0: no references;
+#   BIDEX_SKIP_PACK=1: references only, with the build left by an earlier call)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=$(realpath -m "$1"); deps=$2; slots=${3:-2048}; episodes=${4:-256}
@@ -15,6 +16,7 @@ if [ ! -x "$build/apps/bidex" ] || [ -n "${BIDEX_REBUILD:-}" ]; then
   echo "build: ${SECONDS}s"
 fi
 bidex="$build/apps/bidex"
+if [ -z "${BIDEX_SKIP_PACK:-}" ]; then
 "$bidex" bench pack --suite MT20 --slots "$slots" --seconds 3 --rounds 2 \
   --out "$out/pack-mt20.json" 2>"$out/pack-mt20.log"
 echo "bench pack: ${SECONDS}s"
@@ -23,6 +25,7 @@ import json, sys
 j = json.load(open(sys.argv[1]))
 print(f"MT20 packed {j['packed']['slot_steps_per_s']:.0f}/s, mean single {j['mean_single_slot_steps_per_s']:.0f}/s, ratio {j['packed_over_mean_single']:.3f}")
 PY
+fi
 if [ "$episodes" -gt 0 ]; then
   # one task at a time (a pack would step every slot until the longest episode, 600 steps, ends)
   export BIDEX_REGISTRY="$out/references.sqlite"

@@ -253,14 +253,22 @@ void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& a
   }
 }
 
+// "task hand_over" or "suite MT4".
+std::string kind_of(const std::string& target) {
+  for (auto* list : {&tasks::task_registry(), &tasks::variant_registry()})
+    for (auto& e : *list)
+      if (e.spec().id == target) return "task " + target;
+  return "suite " + target;
+}
+
 // A checkpoint must belong to this task and these shapes.
 void check_meta(const CheckpointMeta& m, const std::string& path, const std::string& task,
                 int64_t obs_dim, int64_t act_dim, const std::string& where) {
   if (m.task != task || (obs_dim > 0 && m.obs_dim != obs_dim) ||
       (act_dim > 0 && m.act_dim != act_dim))
-    throw Error("checkpoint " + path + " was trained on " + m.task + " (observations " +
+    throw Error("checkpoint " + path + " was trained on " + kind_of(m.task) + " (observations " +
                 std::to_string(m.obs_dim) + ", actions " + std::to_string(m.act_dim) + "); " +
-                where + " is " + task +
+                where + " is " + kind_of(task) +
                 (obs_dim > 0 ? " (observations " + std::to_string(obs_dim) + ", actions " +
                                    std::to_string(act_dim) + ")"
                              : std::string()));
