@@ -21,5 +21,6 @@ void add_play_command(CLI::App& app);   // bidex play: run a task with random/ze
 void add_render_command(CLI::App& app); // bidex render: a task's scene, or a policy's episode
 void add_train_command(CLI::App& app);  // bidex train: PPO with a run folder, --resume
 void add_eval_command(CLI::App& app);   // bidex eval: a trained policy's return and success
+void add_registry_command(CLI::App& app);  // bidex registry list|add-task|scores|reference|report
 
 }  // namespace bidex::apps

@@ -72,19 +72,25 @@ std::string svg(const std::vector<Panel>& panels, int width, int panel_height) {
     const Panel& pan = panels[p];
     const double top = p * panel_height + mt, bottom = (p + 1) * panel_height - mb;
     const double left = ml, right = width - mr;
-    // data range
+    // data range (of log10 x on a log axis)
+    auto tx = [&](double x) { return pan.xlog ? (x > 0 ? std::log10(x) : NAN) : x; };
     double x0 = INFINITY, x1 = -INFINITY, y0 = INFINITY, y1 = -INFINITY;
     for (auto& se : pan.series)
       for (size_t i = 0; i < se.x.size() && i < se.y.size(); ++i) {
-        if (!std::isfinite(se.x[i]) || !std::isfinite(se.y[i])) continue;
-        x0 = std::min(x0, se.x[i]);
-        x1 = std::max(x1, se.x[i]);
+        if (!std::isfinite(tx(se.x[i])) || !std::isfinite(se.y[i])) continue;
+        x0 = std::min(x0, tx(se.x[i]));
+        x1 = std::max(x1, tx(se.x[i]));
         y0 = std::min(y0, se.y[i]);
         y1 = std::max(y1, se.y[i]);
       }
     const bool empty = !std::isfinite(x0);
     if (empty) x0 = 0, x1 = 1, y0 = 0, y1 = 1;
     if (x1 <= x0) x1 = x0 + 1;
+    if (pan.xpad > 0) {
+      const double pad = pan.xpad * (x1 - x0);
+      x0 -= pad;
+      x1 += pad;
+    }
     if (y1 <= y0) {
       const double pad = std::max(std::abs(y0) * 0.1, 1e-3);
       y0 -= pad;
@@ -94,14 +100,26 @@ std::string svg(const std::vector<Panel>& panels, int width, int panel_height) {
       y0 -= pad;
       y1 += pad;
     }
+    // X maps an axis value (log10 x on a log axis), PX a data x
     auto X = [&](double x) { return left + (x - x0) / (x1 - x0) * (right - left); };
+    auto PX = [&](double x) { return X(tx(x)); };
     auto Y = [&](double y) { return bottom - (y - y0) / (y1 - y0) * (bottom - top); };
     s += "<text x=\"" + num((left + right) / 2) + "\" y=\"" + num(top - 10) +
          "\" text-anchor=\"middle\" font-size=\"14\">" + escape(pan.title) + "</text>\n";
     s += "<rect x=\"" + num(left) + "\" y=\"" + num(top) + "\" width=\"" + num(right - left) +
          "\" height=\"" + num(bottom - top) + "\" fill=\"none\" stroke=\"#444\"/>\n";
-    for (double t : ticks(x0, x1)) {
-      const double px = X(t);
+    std::vector<double> xticks;
+    if (pan.xlog) {
+      for (int e = static_cast<int>(std::floor(x0)); e <= static_cast<int>(std::ceil(x1)); ++e)
+        for (double m : {1.0, 2.0, 5.0}) {
+          const double t = m * std::pow(10.0, e);
+          if (std::log10(t) >= x0 - 1e-9 && std::log10(t) <= x1 + 1e-9) xticks.push_back(t);
+        }
+    } else {
+      xticks = ticks(x0, x1);
+    }
+    for (double t : xticks) {
+      const double px = PX(t);
       s += "<line x1=\"" + num(px) + "\" y1=\"" + num(top) + "\" x2=\"" + num(px) + "\" y2=\"" +
            num(bottom) + "\" stroke=\"#e5e5e5\"/>\n";
       s += "<text x=\"" + num(px) + "\" y=\"" + num(bottom + 15) +
@@ -118,31 +136,51 @@ std::string svg(const std::vector<Panel>& panels, int width, int panel_height) {
          "\" text-anchor=\"middle\">" + escape(pan.xlabel) + "</text>\n";
     s += "<text transform=\"translate(" + num(left - 50) + "," + num((top + bottom) / 2) +
          ") rotate(-90)\" text-anchor=\"middle\">" + escape(pan.ylabel) + "</text>\n";
+    if (!pan.note.empty())
+      s += "<text x=\"" + num(left + 6) + "\" y=\"" + num(bottom - 6) +
+           "\" font-size=\"10\" fill=\"#666\">" + escape(pan.note) + "</text>\n";
     if (empty)
       s += "<text x=\"" + num((left + right) / 2) + "\" y=\"" + num((top + bottom) / 2) +
            "\" text-anchor=\"middle\" fill=\"#888\">no data yet</text>\n";
     int legend = 0;
+    std::vector<std::pair<double, double>> placed;  // point labels drawn so far (x, y)
     for (size_t k = 0; k < pan.series.size(); ++k) {
       const Series& se = pan.series[k];
       const std::string color = kColors[k % (sizeof kColors / sizeof *kColors)];
       if (se.points) {
         for (size_t i = 0; i < se.x.size() && i < se.y.size(); ++i) {
-          if (!std::isfinite(se.x[i]) || !std::isfinite(se.y[i])) continue;
-          s += "<circle cx=\"" + num(X(se.x[i])) + "\" cy=\"" + num(Y(se.y[i])) +
+          if (!std::isfinite(tx(se.x[i])) || !std::isfinite(se.y[i])) continue;
+          s += "<circle cx=\"" + num(PX(se.x[i])) + "\" cy=\"" + num(Y(se.y[i])) +
                "\" r=\"4\" fill=\"" + color + "\"/>\n";
-          if (i < se.labels.size() && !se.labels[i].empty())
-            s += "<text x=\"" + num(X(se.x[i]) + 6) + "\" y=\"" + num(Y(se.y[i]) - 4) +
-                 "\" font-size=\"10\">" + escape(se.labels[i]) + "</text>\n";
+          if (i < se.labels.size() && !se.labels[i].empty()) {
+            // right of the point, or left of it where the text would leave the panel; below
+            // the labels already placed at the same spot rather than over them
+            double lx = PX(se.x[i]) + 6, ly = Y(se.y[i]) - 4;
+            const bool flip = lx + 6.0 * se.labels[i].size() > width;  // ~6 px a character
+            if (flip) lx = PX(se.x[i]) - 6;
+            for (bool moved = true; moved;) {
+              moved = false;
+              for (auto& [px, py] : placed)
+                if (std::abs(px - lx) < 1 && std::abs(py - ly) < 11) {
+                  ly = py + 11;
+                  moved = true;
+                }
+            }
+            placed.emplace_back(lx, ly);
+            s += "<text x=\"" + num(lx) + "\" y=\"" + num(ly) +
+                 (flip ? "\" text-anchor=\"end" : "") + "\" font-size=\"10\">" +
+                 escape(se.labels[i]) + "</text>\n";
+          }
         }
       } else {
         std::string d;
         bool pen = false;
         for (size_t i = 0; i < se.x.size() && i < se.y.size(); ++i) {
-          if (!std::isfinite(se.x[i]) || !std::isfinite(se.y[i])) {
+          if (!std::isfinite(tx(se.x[i])) || !std::isfinite(se.y[i])) {
             pen = false;
             continue;
           }
-          d += fmt(pen ? "L%.1f %.1f " : "M%.1f %.1f ", X(se.x[i]), Y(se.y[i]));
+          d += fmt(pen ? "L%.1f %.1f " : "M%.1f %.1f ", PX(se.x[i]), Y(se.y[i]));
           pen = true;
         }
         if (!d.empty())

@@ -18,6 +18,9 @@ struct Series {
 struct Panel {
   std::string title, xlabel, ylabel;
   std::vector<Series> series;
+  bool xlog = false;   // logarithmic x axis (ticks 1, 2, 5 x 10^k); x <= 0 counts as missing
+  double xpad = 0;     // blank margin on both sides of the x range, as a fraction of it
+  std::string note;    // a line of small grey text at the panel's lower left (empty: none)
 };
 
 // Panels stacked vertically, each `panel_height` pixels high and `width` wide.

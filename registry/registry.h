@@ -16,6 +16,13 @@ namespace bidex::registry {
 // The current schema version (PRAGMA user_version); opening an older file migrates it.
 int schema_version();
 
+// The SQL of the migration step from version to_version - 1 to to_version (1..schema_version()).
+// A new file runs every step in order from version 0 (registry/README.md lists them).
+std::string migration_sql(int to_version);
+
+// The reference scores loaded on open: configs/registry/references.yaml under sim::data_dir().
+std::string references_path();
+
 // --registry PATH, else $BIDEX_REGISTRY, else runs/registry.sqlite (relative to the working
 // directory, beside the default run folders).
 std::string default_path();
@@ -80,6 +87,8 @@ class Registry {
   Registry& operator=(const Registry&) = delete;
   const std::string& path() const { return path_; }
 
+  // Every registered task: by age (age_min, then age_max, then id), else in registration order
+  // (the built-in tasks in the paper's order first).
   std::vector<TaskRecord> tasks(bool by_age) const;
   std::optional<TaskRecord> task(const std::string& id) const;
   // Registers a task; an id already registered is an Error naming it.
@@ -88,15 +97,19 @@ class Registry {
   std::vector<SuiteRecord> suites() const;
   void put_suite(const SuiteRecord& s);  // insert or replace
 
-  // Records a new run (status running) and returns its id.
+  // Records a new run (status running) and returns its id. An empty `started` becomes the
+  // current UTC time, an empty `host` this machine's host name.
   int64_t begin_run(const RunRecord& r);
   // Updates the run's steps, status, finished time and final metrics, and replaces its scores.
+  // An empty status becomes "finished", an empty `finished` the current UTC time.
   void finish_run(int64_t id, const RunRecord& r, const std::vector<TaskScore>& scores);
-  std::vector<RunRecord> runs() const;
-  std::vector<TaskScore> scores(int64_t run_id) const;
+  std::vector<RunRecord> runs() const;          // by id
+  std::optional<RunRecord> run(int64_t id) const;
+  std::vector<TaskScore> scores(int64_t run_id) const;  // in the order finish_run got them
 
   void set_reference(const Reference& r);  // insert or replace (task, kind)
-  std::vector<Reference> references() const;
+  std::vector<Reference> references() const;    // by task, then kind
+  std::optional<Reference> reference(const std::string& task, const std::string& kind) const;
   // (return - random) / (ground truth - random); empty when a reference is missing.
   std::optional<double> normalised(const std::string& task, double mean_return) const;
 

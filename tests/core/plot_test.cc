@@ -67,3 +67,45 @@ TEST_CASE("a panel without data says so instead of failing", "[core][plot]") {
   CHECK(svg.find("no data yet") != std::string::npos);
   CHECK(count(svg, "<path") == 0);
 }
+
+TEST_CASE("a log x axis, x padding, a note, and point labels kept apart and inside",
+          "[core][plot]") {
+  plot::Panel p;
+  p.xlog = true;
+  p.xpad = 0.1;
+  p.note = "left out: a & b";
+  plot::Series pts;
+  pts.points = true;
+  pts.x = {5, 13, 13, 216, -1};  // x <= 0 has no place on a log axis: left out
+  pts.y = {0.5, 0.8, 0.81, 0.2, 0.3};
+  pts.labels = {"push_block", "door_a", "door_b", "two_catch_underarm", "never"};
+  p.series.push_back(pts);
+  const std::string svg = plot::svg({p}, 600, 300);
+  CHECK(count(svg, "<circle") == 4);
+  CHECK(svg.find(">never<") == std::string::npos);
+  for (const char* t : {">5<", ">10<", ">20<", ">50<", ">100<", ">200<"}) {
+    INFO(t);
+    CHECK(svg.find(t) != std::string::npos);  // ticks 1, 2, 5 x 10^k
+  }
+  CHECK(svg.find("left out: a &amp; b") != std::string::npos);
+  // the circles of 5 and 216 lie inside the padded range, not on the frame (x 70..580)
+  const size_t c0 = svg.find("<circle cx=\"");
+  const double x0 = std::stod(svg.substr(c0 + 12));
+  CHECK(x0 > 90);
+  // the <text ...> tag of a label
+  auto tag = [&](const std::string& label) {
+    const size_t end = svg.find(">" + label + "<");
+    REQUIRE(end != std::string::npos);
+    const size_t start = svg.rfind("<text", end);
+    return svg.substr(start, end - start);
+  };
+  auto label_y = [&](const std::string& label) {
+    const std::string t = tag(label);
+    return std::stod(t.substr(t.find(" y=\"") + 4));
+  };
+  // the two labels at 13 months, 0.01 apart, do not overlap
+  CHECK(std::abs(label_y("door_a") - label_y("door_b")) >= 11);
+  // the label of the rightmost point is drawn to its left, the others to the right
+  CHECK(tag("two_catch_underarm").find("text-anchor=\"end\"") != std::string::npos);
+  CHECK(tag("door_a").find("text-anchor") == std::string::npos);
+}

@@ -1,0 +1,265 @@
+// bidex registry list | add-task | scores | reference | report age: the SQLite registry of tasks
+// ordered by human age, training runs and reference scores (registry/README.md).
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "apps/commands.h"
+#include "core/error.h"
+#include "core/files.h"
+#include "registry/registry.h"
+#include "registry/report.h"
+#include "registry/task_file.h"
+
+namespace bidex::apps {
+
+namespace {
+
+using registry::Registry;
+
+std::string num(const std::optional<double>& v, const char* f = "%.4g") {
+  if (!v || !std::isfinite(*v)) return "-";
+  char buf[48];
+  std::snprintf(buf, sizeof buf, f, *v);
+  return buf;
+}
+
+std::string in_quotes(const std::string& s) {
+  std::string q = "'";
+  q.append(s).append("'");
+  return q;
+}
+
+// --registry PATH on every leaf command
+void add_registry_option(CLI::App* cmd, std::string& path) {
+  cmd->add_option("--registry", path,
+                  "Registry file (default: $BIDEX_REGISTRY, else runs/registry.sqlite); created "
+                  "with the built-in tasks when missing");
+}
+std::string registry_path(const std::string& given) {
+  return given.empty() ? registry::default_path() : given;
+}
+
+// The folder of a file path ("." when it has none).
+std::string folder_of(const std::string& path) {
+  const size_t slash = path.rfind('/');
+  if (slash == std::string::npos) return ".";
+  if (slash == 0) return "/";
+  return path.substr(0, slash);
+}
+
+void print_tasks(const Registry& reg, bool by_age) {
+  const auto tasks = reg.tasks(by_age);
+  std::printf("%s: %zu tasks%s\n", reg.path().c_str(), tasks.size(),
+              by_age ? ", by human age" : ", in registration order");
+  size_t w = 2;
+  for (auto& t : tasks) w = std::max(w, t.id.size());
+  std::printf("%-*s  %-7s %-10s %5s %4s  %s\n", static_cast<int>(w), "id", "age", "difficulty",
+              "obs", "act", "origin");
+  for (auto& t : tasks)
+    std::printf("%-*s  %-7s %-10s %5d %4d  %s\n", static_cast<int>(w), t.id.c_str(),
+                t.age_text.c_str(), t.difficulty.c_str(), t.obs_dim, t.act_dim,
+                t.origin.c_str());
+}
+
+void print_run(const Registry& reg, const registry::RunRecord& r) {
+  const std::string what = r.task.empty() ? "suite " + r.suite : r.task;
+  std::printf("run %lld  %s  %s  seed %llu  %lld steps  %s", static_cast<long long>(r.id),
+              r.algo.c_str(), what.c_str(), static_cast<unsigned long long>(r.seed),
+              static_cast<long long>(r.steps), r.status.c_str());
+  std::printf("  started %s", r.started.c_str());
+  if (!r.finished.empty()) std::printf("  finished %s", r.finished.c_str());
+  std::printf("  final return %s", num(r.final_return).c_str());
+  if (!r.task.empty() && r.final_return)
+    std::printf(" (normalised %s)", num(reg.normalised(r.task, *r.final_return), "%.3f").c_str());
+  std::printf("  success %s\n", num(r.final_success, "%.3f").c_str());
+  if (!r.run_dir.empty()) std::printf("  run folder %s\n", r.run_dir.c_str());
+  const auto scores = reg.scores(r.id);
+  if (scores.empty()) return;
+  size_t w = 5;
+  for (auto& s : scores) w = std::max(w, s.label.size());
+  std::printf("  %-*s  %-20s %10s %8s %9s %11s\n", static_cast<int>(w), "label", "task", "return",
+              "success", "episodes", "normalised");
+  for (auto& s : scores)
+    std::printf("  %-*s  %-20s %10s %8s %9lld %11s\n", static_cast<int>(w), s.label.c_str(),
+                s.task.c_str(), num(s.mean_return).c_str(), num(s.success, "%.3f").c_str(),
+                static_cast<long long>(s.episodes),
+                num(reg.normalised(s.task, s.mean_return), "%.3f").c_str());
+}
+
+}  // namespace
+
+void add_registry_command(CLI::App& app) {
+  auto* reg = app.add_subcommand(
+      "registry", "The registry (one SQLite file): tasks ordered by human age, training runs, "
+                  "reference scores and the age report");
+  reg->require_subcommand(1);
+  reg->footer(
+      "The file: --registry PATH, else $BIDEX_REGISTRY, else runs/registry.sqlite. "
+      "See registry/README.md.");
+
+  // list
+  {
+    struct Opts {
+      std::string registry, by;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = reg->add_subcommand(
+        "list", "The registered tasks: id, human age, difficulty, observation and action "
+                "widths, origin (builtin or the YAML file it was added from)");
+    add_registry_option(cmd, o->registry);
+    cmd->add_option("--by", o->by,
+                    "Order: 'age' (age_min, then age_max, then id); left out: registration "
+                    "order, the paper's first");
+    cmd->footer("Example:\n  bidex registry list --by age");
+    cmd->callback([o] {
+      if (!o->by.empty() && o->by != "age")
+        throw Error(std::string("registry list: --by takes 'age', not ").append(in_quotes(o->by)));
+      Registry r(registry_path(o->registry));
+      print_tasks(r, o->by == "age");
+    });
+  }
+
+  // add-task
+  {
+    struct Opts {
+      std::string registry, file;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = reg->add_subcommand(
+        "add-task", "Register a task from a task description YAML (id, version, paper_name, "
+                    "original_name, age {min, max, text}, difficulty, skill, obs_dim, act_dim, "
+                    "sources); checked strictly, nothing is written when it has an error");
+    add_registry_option(cmd, o->registry);
+    cmd->add_option("file", o->file, "Task description YAML");
+    cmd->footer("Example:\n  bidex registry add-task configs/registry/example_task.yaml");
+    cmd->callback([o] {
+      if (o->file.empty())
+        throw Error("registry add-task: give the task description YAML (e.g. "
+                    "configs/registry/example_task.yaml)");
+      const registry::TaskRecord t = registry::load_task_file(o->file);
+      Registry r(registry_path(o->registry));
+      if (auto old = r.task(t.id))
+        throw ConfigError(o->file, "id", "an id not registered yet",
+                          in_quotes(t.id).append(", already registered (origin ")
+                              .append(old->origin)
+                              .append(")"));
+      r.add_task(t);
+      std::printf("registered %s (age %s months, %s, obs %d, act %d) in %s\n", t.id.c_str(),
+                  t.age_text.c_str(), t.difficulty.c_str(), t.obs_dim, t.act_dim,
+                  r.path().c_str());
+    });
+  }
+
+  // scores
+  {
+    struct Opts {
+      std::string registry, task, suite;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = reg->add_subcommand(
+        "scores", "Recorded runs with their final return and success, their per-task scores "
+                  "and normalised scores ((return - random) / (ground truth - random))");
+    add_registry_option(cmd, o->registry);
+    cmd->add_option("--task", o->task, "Only runs of this task, or with a score of it");
+    cmd->add_option("--suite", o->suite, "Only runs of this suite");
+    cmd->footer("Examples:\n  bidex registry scores\n  bidex registry scores --task hand_over");
+    cmd->callback([o] {
+      Registry r(registry_path(o->registry));
+      int shown = 0;
+      for (auto& run : r.runs()) {
+        if (!o->suite.empty() && run.suite != o->suite) continue;
+        if (!o->task.empty() && run.task != o->task) {
+          bool scored = false;
+          for (auto& s : r.scores(run.id)) scored = scored || s.task == o->task;
+          if (!scored) continue;
+        }
+        print_run(r, run);
+        ++shown;
+      }
+      std::printf("%d run%s in %s\n", shown, shown == 1 ? "" : "s", r.path().c_str());
+    });
+  }
+
+  // reference
+  {
+    struct Opts {
+      std::string registry, task, kind, source;
+      double value = 0;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = reg->add_subcommand(
+        "reference", "Set a task's reference score (random or ground_truth) with its source; "
+                     "replaces the one recorded");
+    add_registry_option(cmd, o->registry);
+    cmd->add_option("--task", o->task, "Task id");
+    cmd->add_option("--kind", o->kind, "random | ground_truth");
+    auto* value = cmd->add_option("--value", o->value, "Mean episode return");
+    cmd->add_option("--source", o->source, "Where the value comes from");
+    cmd->footer(
+        "Example (the value is illustrative, not a measurement):\n"
+        "  bidex registry reference --task hand_over --kind random --value 0.4 "
+        "--source \"bidex play --task hand_over --policy random, mean of 1000 episodes\"");
+    cmd->callback([o, value] {
+      std::string missing;
+      if (o->task.empty()) missing.append(" --task");
+      if (o->kind.empty()) missing.append(" --kind");
+      if (value->count() == 0) missing.append(" --value");
+      if (o->source.empty()) missing.append(" --source");
+      if (!missing.empty()) throw Error("registry reference: missing" + missing);
+      if (o->kind != "random" && o->kind != "ground_truth")
+        throw Error(std::string("registry reference: --kind takes random or ground_truth, not ")
+                        .append(in_quotes(o->kind)));
+      Registry r(registry_path(o->registry));
+      r.set_reference({o->task, o->kind, o->value, o->source});
+      std::printf("%s %s = %s (%s) in %s\n", o->task.c_str(), o->kind.c_str(),
+                  num(o->value, "%.6g").c_str(), o->source.c_str(), r.path().c_str());
+    });
+  }
+
+  // report age
+  {
+    auto* report = reg->add_subcommand("report", "Reports over the registry");
+    report->require_subcommand(1);
+    struct Opts {
+      std::string registry, suite, out;
+      int64_t run = 0;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = report->add_subcommand(
+        "age", "Each task's latest score in human-age order with its reference and normalised "
+               "scores, as a table and an SVG plot of normalised score against human age");
+    add_registry_option(cmd, o->registry);
+    cmd->add_option("--suite", o->suite, "Scores of the latest scored run of this suite");
+    cmd->add_option("--run", o->run, "Scores of this run (id, see bidex registry scores)");
+    cmd->add_option("--out", o->out, "SVG file (default: age_report.svg beside the registry)");
+    cmd->footer(
+        "Without --suite or --run, each task's score is that of the latest run that scored it.\n"
+        "Example:\n  bidex registry report age --out age_report.svg");
+    cmd->callback([o] {
+      if (!o->suite.empty() && o->run != 0)
+        throw Error("registry report age: give --suite or --run, not both");
+      if (o->run < 0) throw Error("registry report age: --run takes a run id >= 1");
+      Registry r(registry_path(o->registry));
+      const registry::AgeReport rep = registry::age_report(r, o->suite, o->run);
+      std::fputs(registry::age_table(rep).c_str(), stdout);
+      const auto left_out = registry::unplotted(rep);
+      if (!left_out.empty()) {
+        std::string list;
+        for (auto& l : left_out) list.append(list.empty() ? "" : ", ").append(l);
+        std::printf("left out of the plot (no normalised score): %s\n", list.c_str());
+      }
+      const std::string out = o->out.empty() ? folder_of(r.path()) + "/age_report.svg" : o->out;
+      write_file_atomic(out, registry::age_svg(rep));
+      std::printf("plot (%zu of %zu tasks): %s\n", rep.rows.size() - left_out.size(),
+                  rep.rows.size(), out.c_str());
+    });
+  }
+}
+
+}  // namespace bidex::apps

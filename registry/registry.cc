@@ -1,0 +1,675 @@
+#include "registry/registry.h"
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <ctime>
+#include <thread>
+
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/yaml.h"
+#include "registry/sql.h"
+#include "sim/hand_spec.h"
+#include "tasks/registry.h"
+
+namespace bidex::registry {
+
+namespace {
+
+using sql::Stmt;
+using sql::WriteTxn;
+
+// The migration steps, in order: kMigrations[k] takes a file from version k to version k + 1.
+// Never edit a released step: add a new one (and bump nothing else; schema_version() follows).
+//
+// Version 1: tasks, runs of single tasks with their final metrics, reference scores without
+// sources.
+// Version 2: where each task fact comes from (task_sources), suites and their members, runs of
+// suites (runs.suite), per-task scores of a run (run_scores), the source of each reference score.
+const char* const kMigrations[] = {
+    // 0 -> 1
+    R"sql(
+CREATE TABLE tasks (
+  id TEXT PRIMARY KEY,
+  version INTEGER NOT NULL,
+  paper_name TEXT NOT NULL,
+  original_name TEXT NOT NULL DEFAULT '',
+  age_min INTEGER NOT NULL,
+  age_max INTEGER NOT NULL,
+  age_text TEXT NOT NULL,
+  difficulty TEXT NOT NULL CHECK (difficulty IN ('easy', 'medium', 'hard')),
+  skill TEXT NOT NULL,
+  obs_dim INTEGER NOT NULL,
+  act_dim INTEGER NOT NULL,
+  origin TEXT NOT NULL
+);
+CREATE TABLE runs (
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  algo TEXT NOT NULL,
+  task TEXT NOT NULL,
+  seed INTEGER NOT NULL,
+  steps INTEGER NOT NULL DEFAULT 0,
+  config_hash TEXT NOT NULL DEFAULT '',
+  code_version TEXT NOT NULL DEFAULT '',
+  run_dir TEXT NOT NULL DEFAULT '',
+  host TEXT NOT NULL DEFAULT '',
+  started TEXT NOT NULL,
+  finished TEXT NOT NULL DEFAULT '',
+  status TEXT NOT NULL CHECK (status IN ('running', 'finished', 'stopped', 'failed')),
+  final_return REAL,
+  final_success REAL
+);
+CREATE TABLE reference_scores (
+  task TEXT NOT NULL REFERENCES tasks(id),
+  kind TEXT NOT NULL CHECK (kind IN ('random', 'ground_truth')),
+  value REAL NOT NULL,
+  PRIMARY KEY (task, kind)
+);
+CREATE INDEX runs_task ON runs(task);
+)sql",
+    // 1 -> 2
+    R"sql(
+ALTER TABLE runs ADD COLUMN suite TEXT NOT NULL DEFAULT '';
+CREATE INDEX runs_suite ON runs(suite);
+ALTER TABLE reference_scores ADD COLUMN source TEXT NOT NULL DEFAULT '';
+UPDATE reference_scores SET source = 'unknown (recorded under registry schema version 1, which kept no sources)'
+  WHERE source = '';
+CREATE TABLE task_sources (
+  task TEXT NOT NULL REFERENCES tasks(id),
+  fact TEXT NOT NULL,
+  source TEXT NOT NULL,
+  PRIMARY KEY (task, fact)
+);
+CREATE TABLE suites (
+  id TEXT PRIMARY KEY,
+  mode TEXT NOT NULL,
+  file TEXT NOT NULL DEFAULT '',
+  description TEXT NOT NULL DEFAULT ''
+);
+CREATE TABLE suite_members (
+  suite TEXT NOT NULL REFERENCES suites(id),
+  split TEXT NOT NULL CHECK (split IN ('train', 'test')),
+  label TEXT NOT NULL,
+  task TEXT NOT NULL,
+  reward_scale REAL NOT NULL DEFAULT 1,
+  position INTEGER NOT NULL,
+  PRIMARY KEY (suite, split, label)
+);
+CREATE TABLE run_scores (
+  run INTEGER NOT NULL REFERENCES runs(id),
+  label TEXT NOT NULL,
+  task TEXT NOT NULL,
+  mean_return REAL NOT NULL,
+  success REAL,
+  episodes INTEGER NOT NULL DEFAULT 0,
+  position INTEGER NOT NULL,
+  PRIMARY KEY (run, label)
+);
+CREATE INDEX run_scores_task ON run_scores(task);
+)sql",
+};
+constexpr int kVersion = static_cast<int>(sizeof kMigrations / sizeof *kMigrations);
+
+// How long a write waits for another process's write lock.
+constexpr int kBusyMs = 30000;
+
+std::string in_quotes(const std::string& s) {
+  std::string q = "'";
+  q.append(s).append("'");
+  return q;
+}
+
+std::string now_utc() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+std::string host_name() {
+  char buf[256] = "";
+  if (::gethostname(buf, sizeof buf - 1) != 0) return "";
+  return buf;
+}
+
+// mkdir -p of the folder holding `path` (POSIX; the project uses no std::filesystem).
+void make_parent_folders(const std::string& path) {
+  for (size_t pos = path.find('/', 1); pos != std::string::npos; pos = path.find('/', pos + 1)) {
+    const std::string dir = path.substr(0, pos);
+    if (::mkdir(dir.c_str(), 0755) != 0 && errno != EEXIST) {
+      std::string msg = path;
+      msg.append(": cannot create folder ").append(dir).append(": ").append(std::strerror(errno));
+      throw IoError(msg);
+    }
+  }
+}
+
+bool valid_difficulty(const std::string& d) {
+  return d == "easy" || d == "medium" || d == "hard";
+}
+bool valid_kind(const std::string& k) { return k == "random" || k == "ground_truth"; }
+bool valid_status(const std::string& s) {
+  return s == "running" || s == "finished" || s == "stopped" || s == "failed";
+}
+
+int user_version(sqlite3* db, const std::string& path) {
+  Stmt st(db, path, "PRAGMA user_version");
+  return st.step() ? st.i32(0) : 0;
+}
+
+// Switches the file to WAL mode and returns the journal mode now in force. Changing the mode
+// needs the file to itself: while another process holds a lock (two processes creating the file
+// at once) SQLite answers "busy" at once, without its busy handler, so retry here for as long as
+// the busy timeout.
+std::string set_wal(sqlite3* db, const std::string& path) {
+  const auto start = std::chrono::steady_clock::now();
+  for (;;) {
+    sqlite3_stmt* st = nullptr;
+    int rc = sqlite3_prepare_v2(db, "PRAGMA journal_mode = WAL", -1, &st, nullptr);
+    if (rc == SQLITE_OK) rc = sqlite3_step(st);
+    std::string mode;
+    if (rc == SQLITE_ROW) {
+      const unsigned char* t = sqlite3_column_text(st, 0);
+      mode = t ? reinterpret_cast<const char*>(t) : "";
+    }
+    sqlite3_finalize(st);
+    if (rc == SQLITE_ROW) return mode;
+    const bool busy = (rc & 0xff) == SQLITE_BUSY || (rc & 0xff) == SQLITE_LOCKED;
+    if (!busy || std::chrono::steady_clock::now() - start > std::chrono::milliseconds(kBusyMs))
+      sql::fail(db, path, "cannot switch the registry to WAL mode");
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+}
+
+// The record of a built-in task, with the sources of its facts.
+TaskRecord builtin_record(const tasks::TaskSpec& sp) {
+  TaskRecord t;
+  t.id = sp.id;
+  t.version = sp.version;
+  t.paper_name = sp.paper_name;
+  t.original_name = sp.original_name;
+  t.age_min = sp.age.min_months;
+  t.age_max = sp.age.max_months;
+  t.age_text = sp.age.text;
+  t.difficulty = tasks::difficulty_name(sp.difficulty);
+  t.skill = sp.skill;
+  t.obs_dim = sp.obs.dim();
+  t.act_dim = sp.act.dim();
+  t.origin = "builtin";
+  const std::string table = sp.age.from_commented_row
+                                ? "paper source, a commented-out row of the task table"
+                                : "paper, task table";
+  t.sources["age"] = table;
+  t.sources["difficulty"] = table;
+  t.sources["skill"] = table;
+  t.sources["obs_dim"] = sp.id == "grasp_and_place" ? "original code; the paper gives no table"
+                                                    : "paper, observation and action tables";
+  t.sources["act_dim"] = "paper, observation and action tables";
+  t.sources["names"] = "bidex task spec";
+  t.sources["version"] = "bidex task spec";
+  return t;
+}
+
+void upsert_task(sqlite3* db, const std::string& path, const TaskRecord& t) {
+  Stmt st(db, path,
+          "INSERT INTO tasks (id, version, paper_name, original_name, age_min, age_max, age_text, "
+          "difficulty, skill, obs_dim, act_dim, origin) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, "
+          "?9, ?10, ?11, ?12) ON CONFLICT (id) DO UPDATE SET version = ?2, paper_name = ?3, "
+          "original_name = ?4, age_min = ?5, age_max = ?6, age_text = ?7, difficulty = ?8, "
+          "skill = ?9, obs_dim = ?10, act_dim = ?11, origin = ?12");
+  st.bind(1, t.id).bind(2, t.version).bind(3, t.paper_name).bind(4, t.original_name);
+  st.bind(5, t.age_min).bind(6, t.age_max).bind(7, t.age_text).bind(8, t.difficulty);
+  st.bind(9, t.skill).bind(10, t.obs_dim).bind(11, t.act_dim).bind(12, t.origin);
+  st.run();
+  Stmt src(db, path,
+           "INSERT INTO task_sources (task, fact, source) VALUES (?1, ?2, ?3) "
+           "ON CONFLICT (task, fact) DO UPDATE SET source = ?3");
+  for (auto& [fact, text] : t.sources) {
+    src.bind(1, t.id).bind(2, fact).bind(3, text);
+    src.run();
+    src.reset();
+  }
+}
+
+bool task_exists(sqlite3* db, const std::string& path, const std::string& id) {
+  Stmt st(db, path, "SELECT 1 FROM tasks WHERE id = ?1");
+  st.bind(1, id);
+  return st.step();
+}
+
+// Reference scores of configs/registry/references.yaml (sections ground_truth and random, each
+// empty or {source, values: {task: value or {value, source}}}), inserted where absent.
+void load_references(sqlite3* db, const std::string& path) {
+  const std::string file = references_path();
+  const YamlView root = YamlView::load_file(file);
+  if (root.node().IsNull()) return;
+  root.allow_keys({"ground_truth", "random"});
+  Stmt ins(db, path,
+           "INSERT INTO reference_scores (task, kind, value, source) VALUES (?1, ?2, ?3, ?4) "
+           "ON CONFLICT (task, kind) DO NOTHING");
+  for (const char* kind : {"ground_truth", "random"}) {
+    auto sec = root.maybe(kind);
+    if (!sec || sec->node().IsNull()) continue;  // a section still to be measured
+    sec->allow_keys({"source", "values"});
+    const std::string source = sec->req<std::string>("source");
+    const YamlView values = sec->child("values");
+    if (values.node().IsNull()) continue;
+    for (auto& task : values.keys()) {
+      const YamlView v = values.child(task);
+      if (!task_exists(db, path, task))
+        v.fail("a registered task id", sql::cat("unknown task ", in_quotes(task)));
+      double value = 0;
+      std::string src = source;
+      if (v.is_map()) {
+        v.allow_keys({"value", "source"});
+        value = v.req<double>("value");
+        src = v.opt<std::string>("source", source);
+      } else {
+        value = v.as<double>();
+      }
+      ins.bind(1, task).bind(2, kind).bind(3, value).bind(4, src);
+      ins.run();
+      ins.reset();
+    }
+  }
+}
+
+TaskRecord read_task(const Stmt& st) {
+  TaskRecord t;
+  t.id = st.text(0);
+  t.version = st.i32(1);
+  t.paper_name = st.text(2);
+  t.original_name = st.text(3);
+  t.age_min = st.i32(4);
+  t.age_max = st.i32(5);
+  t.age_text = st.text(6);
+  t.difficulty = st.text(7);
+  t.skill = st.text(8);
+  t.obs_dim = st.i32(9);
+  t.act_dim = st.i32(10);
+  t.origin = st.text(11);
+  return t;
+}
+const char* const kTaskColumns =
+    "SELECT id, version, paper_name, original_name, age_min, age_max, age_text, difficulty, "
+    "skill, obs_dim, act_dim, origin FROM tasks ";
+
+const char* const kRunColumns =
+    "SELECT id, algo, task, suite, seed, steps, config_hash, code_version, run_dir, host, "
+    "started, finished, status, final_return, final_success FROM runs ";
+RunRecord read_run(const Stmt& st) {
+  RunRecord r;
+  r.id = st.i64(0);
+  r.algo = st.text(1);
+  r.task = st.text(2);
+  r.suite = st.text(3);
+  r.seed = static_cast<uint64_t>(st.i64(4));  // stored as the signed 64-bit pattern
+  r.steps = st.i64(5);
+  r.config_hash = st.text(6);
+  r.code_version = st.text(7);
+  r.run_dir = st.text(8);
+  r.host = st.text(9);
+  r.started = st.text(10);
+  r.finished = st.text(11);
+  r.status = st.text(12);
+  r.final_return = st.opt(13);
+  r.final_success = st.opt(14);
+  return r;
+}
+
+void check_task_record(const TaskRecord& t) {
+  std::string what;
+  if (t.id.empty()) what = "an empty id";
+  else if (t.version < 1) what = sql::cat("version ", std::to_string(t.version), " (expected >= 1)");
+  else if (t.age_min < 0 || t.age_max < t.age_min)
+    what = sql::cat("age ", std::to_string(t.age_min), "..", std::to_string(t.age_max),
+                    " months (expected 0 <= min <= max)");
+  else if (!valid_difficulty(t.difficulty))
+    what = sql::cat("difficulty ", in_quotes(t.difficulty), " (expected easy, medium or hard)");
+  else if (t.obs_dim < 1 || t.act_dim < 1)
+    what = sql::cat("dimensions obs ", std::to_string(t.obs_dim), ", act ",
+                    std::to_string(t.act_dim), " (expected >= 1)");
+  if (!what.empty()) {
+    std::string msg = "task ";
+    msg.append(in_quotes(t.id)).append(": ").append(what);
+    throw Error(msg);
+  }
+}
+
+}  // namespace
+
+int schema_version() { return kVersion; }
+
+std::string migration_sql(int to_version) {
+  if (to_version < 1 || to_version > kVersion)
+    throw Error(sql::cat("no registry migration to version ", std::to_string(to_version), " (1..",
+                         std::to_string(kVersion), ")"));
+  return kMigrations[to_version - 1];
+}
+
+std::string references_path() { return sim::data_dir() + "/configs/registry/references.yaml"; }
+
+std::string default_path() {
+  if (const char* env = std::getenv("BIDEX_REGISTRY"); env && *env) return env;
+  return "runs/registry.sqlite";
+}
+
+Registry::Registry(const std::string& path) : path_(path) {
+  if (path_.empty()) throw Error("registry: empty file name");
+  make_parent_folders(path_);
+  if (sqlite3_open_v2(path_.c_str(), &db_, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) !=
+      SQLITE_OK) {
+    std::string msg = path_;
+    msg.append(": cannot open the registry: ").append(db_ ? sqlite3_errmsg(db_) : "out of memory");
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw IoError(msg);
+  }
+  try {
+    sqlite3_busy_timeout(db_, kBusyMs);
+    // the first read of the file tells an SQLite file from anything else
+    {
+      sqlite3_stmt* probe = nullptr;
+      int rc = sqlite3_prepare_v2(db_, "SELECT count(*) FROM sqlite_master", -1, &probe, nullptr);
+      if (rc == SQLITE_OK) rc = sqlite3_step(probe);
+      sqlite3_finalize(probe);
+      if (rc != SQLITE_ROW) {
+        std::string msg = path_;
+        msg.append(": not a bidex registry: cannot read it as an SQLite database (")
+            .append(sqlite3_errmsg(db_))
+            .append(")");
+        throw Error(msg);
+      }
+    }
+    const auto newer = [&](int v) {
+      std::string msg = path_;
+      msg.append(": registry schema version ")
+          .append(std::to_string(v))
+          .append(" is newer than this bidex knows (")
+          .append(std::to_string(kVersion))
+          .append("): open it with a newer bidex; the file was left untouched");
+      return Error(msg);
+    };
+    // refuse a newer registry or another program's SQLite file before changing anything
+    const auto foreign = [&]() -> std::optional<Error> {
+      Stmt st(db_, path_, "SELECT name FROM sqlite_master WHERE type = 'table' LIMIT 1");
+      if (!st.step()) return std::nullopt;
+      std::string msg = path_;
+      msg.append(": not a bidex registry: an SQLite file with other tables (")
+          .append(st.text(0))
+          .append(") and no registry schema version");
+      return Error(msg);
+    };
+    const int found = user_version(db_, path_);
+    if (found > kVersion) throw newer(found);
+    if (found == 0) {
+      if (auto e = foreign()) throw *e;
+    }
+
+    // WAL: readers never block the writer; the mode is stored in the file
+    {
+      const std::string mode = set_wal(db_, path_);
+      if (mode != "wal") {
+        std::string msg = path_;
+        msg.append(": cannot switch the registry to WAL mode (journal mode is ")
+            .append(in_quotes(mode))
+            .append(")");
+        throw Error(msg);
+      }
+    }
+    sql::exec(db_, path_, "PRAGMA synchronous = NORMAL; PRAGMA foreign_keys = ON");
+
+    // migrate, then bring the built-in tasks and the reference scores up to date, all in one
+    // write transaction (another process may be doing the same: the lock orders them)
+    WriteTxn txn(db_, path_);
+    const int v = user_version(db_, path_);
+    if (v > kVersion) throw newer(v);
+    if (v == 0) {
+      if (auto e = foreign()) throw *e;
+    }
+    for (int step = v; step < kVersion; ++step) sql::exec(db_, path_, kMigrations[step]);
+    if (v != kVersion)
+      sql::exec(db_, path_, sql::cat("PRAGMA user_version = ", std::to_string(kVersion)));
+    for (auto& e : tasks::task_registry()) upsert_task(db_, path_, builtin_record(e.spec()));
+    load_references(db_, path_);
+    txn.commit();
+  } catch (...) {
+    sqlite3_close(db_);
+    db_ = nullptr;
+    throw;
+  }
+}
+
+Registry::~Registry() { sqlite3_close(db_); }
+
+std::vector<TaskRecord> Registry::tasks(bool by_age) const {
+  std::string q = kTaskColumns;
+  q.append(by_age ? "ORDER BY age_min, age_max, id" : "ORDER BY rowid");
+  std::vector<TaskRecord> out;
+  Stmt st(db_, path_, q.c_str());
+  while (st.step()) out.push_back(read_task(st));
+  Stmt src(db_, path_, "SELECT task, fact, source FROM task_sources");
+  while (src.step())
+    for (auto& t : out)
+      if (t.id == src.text(0)) t.sources[src.text(1)] = src.text(2);
+  return out;
+}
+
+std::optional<TaskRecord> Registry::task(const std::string& id) const {
+  std::string q = kTaskColumns;
+  q.append("WHERE id = ?1");
+  Stmt st(db_, path_, q.c_str());
+  st.bind(1, id);
+  if (!st.step()) return std::nullopt;
+  TaskRecord t = read_task(st);
+  Stmt src(db_, path_, "SELECT fact, source FROM task_sources WHERE task = ?1");
+  src.bind(1, id);
+  while (src.step()) t.sources[src.text(0)] = src.text(1);
+  return t;
+}
+
+void Registry::add_task(const TaskRecord& t) {
+  check_task_record(t);
+  WriteTxn txn(db_, path_);
+  if (auto old = task(t.id)) {
+    std::string msg = path_;
+    msg.append(": task ")
+        .append(in_quotes(t.id))
+        .append(" is already registered (origin ")
+        .append(old->origin)
+        .append(")");
+    throw Error(msg);
+  }
+  upsert_task(db_, path_, t);
+  txn.commit();
+}
+
+std::vector<SuiteRecord> Registry::suites() const {
+  std::vector<SuiteRecord> out;
+  Stmt st(db_, path_, "SELECT id, mode, file, description FROM suites ORDER BY rowid");
+  while (st.step()) {
+    SuiteRecord s;
+    s.id = st.text(0);
+    s.mode = st.text(1);
+    s.file = st.text(2);
+    s.description = st.text(3);
+    out.push_back(std::move(s));
+  }
+  Stmt m(db_, path_,
+         "SELECT label, task, split, reward_scale FROM suite_members WHERE suite = ?1 "
+         "ORDER BY position");
+  for (auto& s : out) {
+    m.bind(1, s.id);
+    while (m.step()) s.members.push_back({m.text(0), m.text(1), m.text(2), m.dbl(3)});
+    m.reset();
+  }
+  return out;
+}
+
+void Registry::put_suite(const SuiteRecord& s) {
+  if (s.id.empty()) throw Error(path_ + ": a suite needs an id");
+  for (auto& m : s.members) {
+    if (m.split != "train" && m.split != "test")
+      throw Error(path_ + ": suite " + in_quotes(s.id) + ", member " + in_quotes(m.label) +
+                  ": split must be train or test, not " + in_quotes(m.split));
+    if (!std::isfinite(m.reward_scale))
+      throw Error(path_ + ": suite " + in_quotes(s.id) + ", member " + in_quotes(m.label) +
+                  ": reward scale is not a finite number");
+  }
+  WriteTxn txn(db_, path_);
+  Stmt del(db_, path_, "DELETE FROM suite_members WHERE suite = ?1");
+  del.bind(1, s.id);
+  del.run();
+  Stmt up(db_, path_,
+          "INSERT INTO suites (id, mode, file, description) VALUES (?1, ?2, ?3, ?4) "
+          "ON CONFLICT (id) DO UPDATE SET mode = ?2, file = ?3, description = ?4");
+  up.bind(1, s.id).bind(2, s.mode).bind(3, s.file).bind(4, s.description);
+  up.run();
+  Stmt ins(db_, path_,
+           "INSERT INTO suite_members (suite, split, label, task, reward_scale, position) "
+           "VALUES (?1, ?2, ?3, ?4, ?5, ?6)");
+  int pos = 0;
+  for (auto& m : s.members) {
+    ins.bind(1, s.id).bind(2, m.split).bind(3, m.label).bind(4, m.task);
+    ins.bind(5, m.reward_scale).bind(6, pos++);
+    ins.run();
+    ins.reset();
+  }
+  txn.commit();
+}
+
+int64_t Registry::begin_run(const RunRecord& r) {
+  if (r.algo.empty()) throw Error(path_ + ": a run needs an algorithm");
+  if (r.task.empty() == r.suite.empty())
+    throw Error(path_ + ": a run is of one task or of one suite (task " + in_quotes(r.task) +
+                ", suite " + in_quotes(r.suite) + ")");
+  WriteTxn txn(db_, path_);
+  Stmt st(db_, path_,
+          "INSERT INTO runs (algo, task, suite, seed, steps, config_hash, code_version, run_dir, "
+          "host, started, finished, status) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, '', "
+          "'running')");
+  st.bind(1, r.algo).bind(2, r.task).bind(3, r.suite).bind(4, static_cast<int64_t>(r.seed));
+  st.bind(5, r.steps).bind(6, r.config_hash).bind(7, r.code_version).bind(8, r.run_dir);
+  st.bind(9, r.host.empty() ? host_name() : r.host);
+  st.bind(10, r.started.empty() ? now_utc() : r.started);
+  st.run();
+  const int64_t id = sqlite3_last_insert_rowid(db_);
+  txn.commit();
+  return id;
+}
+
+void Registry::finish_run(int64_t id, const RunRecord& r, const std::vector<TaskScore>& scores) {
+  const std::string status = r.status.empty() ? "finished" : r.status;
+  if (!valid_status(status))
+    throw Error(path_ + ": run " + std::to_string(id) + ": status " + in_quotes(status) +
+                " is not one of running, finished, stopped, failed");
+  for (size_t i = 0; i < scores.size(); ++i)
+    for (size_t j = 0; j < i; ++j)
+      if ((scores[i].label.empty() ? scores[i].task : scores[i].label) ==
+          (scores[j].label.empty() ? scores[j].task : scores[j].label))
+        throw Error(path_ + ": run " + std::to_string(id) + ": two scores with the label " +
+                    in_quotes(scores[i].label.empty() ? scores[i].task : scores[i].label));
+  WriteTxn txn(db_, path_);
+  Stmt up(db_, path_,
+          "UPDATE runs SET steps = ?2, status = ?3, finished = ?4, final_return = ?5, "
+          "final_success = ?6 WHERE id = ?1");
+  up.bind(1, id).bind(2, r.steps).bind(3, status);
+  up.bind(4, r.finished.empty() && status != "running" ? now_utc() : r.finished);
+  up.bind(5, r.final_return).bind(6, r.final_success);
+  up.run();
+  if (sqlite3_changes(db_) != 1)
+    throw Error(path_ + ": no run with id " + std::to_string(id) + " to finish");
+  Stmt del(db_, path_, "DELETE FROM run_scores WHERE run = ?1");
+  del.bind(1, id);
+  del.run();
+  Stmt ins(db_, path_,
+           "INSERT INTO run_scores (run, label, task, mean_return, success, episodes, position) "
+           "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+  int pos = 0;
+  for (auto& s : scores) {
+    ins.bind(1, id).bind(2, s.label.empty() ? s.task : s.label).bind(3, s.task);
+    ins.bind(4, s.mean_return).bind(5, s.success).bind(6, s.episodes).bind(7, pos++);
+    ins.run();
+    ins.reset();
+  }
+  txn.commit();
+}
+
+std::vector<RunRecord> Registry::runs() const {
+  std::string q = kRunColumns;
+  q.append("ORDER BY id");
+  std::vector<RunRecord> out;
+  Stmt st(db_, path_, q.c_str());
+  while (st.step()) out.push_back(read_run(st));
+  return out;
+}
+
+std::optional<RunRecord> Registry::run(int64_t id) const {
+  std::string q = kRunColumns;
+  q.append("WHERE id = ?1");
+  Stmt st(db_, path_, q.c_str());
+  st.bind(1, id);
+  if (!st.step()) return std::nullopt;
+  return read_run(st);
+}
+
+std::vector<TaskScore> Registry::scores(int64_t run_id) const {
+  std::vector<TaskScore> out;
+  Stmt st(db_, path_,
+          "SELECT task, label, mean_return, success, episodes FROM run_scores WHERE run = ?1 "
+          "ORDER BY position");
+  st.bind(1, run_id);
+  while (st.step()) out.push_back({st.text(0), st.text(1), st.dbl(2), st.opt(3), st.i64(4)});
+  return out;
+}
+
+void Registry::set_reference(const Reference& r) {
+  if (!valid_kind(r.kind))
+    throw Error(path_ + ": reference kind " + in_quotes(r.kind) + " is not random or ground_truth");
+  if (!std::isfinite(r.value))
+    throw Error(path_ + ": reference value of " + in_quotes(r.task) + " is not a finite number");
+  if (r.source.empty())
+    throw Error(path_ + ": the reference score of " + in_quotes(r.task) + " needs a source");
+  WriteTxn txn(db_, path_);
+  if (!task_exists(db_, path_, r.task))
+    throw Error(path_ + ": no registered task " + in_quotes(r.task) + " (bidex registry list)");
+  Stmt st(db_, path_,
+          "INSERT INTO reference_scores (task, kind, value, source) VALUES (?1, ?2, ?3, ?4) "
+          "ON CONFLICT (task, kind) DO UPDATE SET value = ?3, source = ?4");
+  st.bind(1, r.task).bind(2, r.kind).bind(3, r.value).bind(4, r.source);
+  st.run();
+  txn.commit();
+}
+
+std::vector<Reference> Registry::references() const {
+  std::vector<Reference> out;
+  Stmt st(db_, path_,
+          "SELECT task, kind, value, source FROM reference_scores ORDER BY task, kind");
+  while (st.step()) out.push_back({st.text(0), st.text(1), st.dbl(2), st.text(3)});
+  return out;
+}
+
+std::optional<Reference> Registry::reference(const std::string& task,
+                                             const std::string& kind) const {
+  Stmt st(db_, path_,
+          "SELECT task, kind, value, source FROM reference_scores WHERE task = ?1 AND kind = ?2");
+  st.bind(1, task).bind(2, kind);
+  if (!st.step()) return std::nullopt;
+  return Reference{st.text(0), st.text(1), st.dbl(2), st.text(3)};
+}
+
+std::optional<double> Registry::normalised(const std::string& task, double mean_return) const {
+  const auto random = reference(task, "random");
+  const auto truth = reference(task, "ground_truth");
+  if (!random || !truth || truth->value == random->value) return std::nullopt;
+  return (mean_return - random->value) / (truth->value - random->value);
+}
+
+}  // namespace bidex::registry

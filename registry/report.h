@@ -1,0 +1,47 @@
+// Reports over the registry: the latest score of each task in human-age order with its reference
+// scores and normalised score (`bidex registry report age`), as a text table and an SVG plot of
+// normalised score against human age, like the paper's age figure.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "registry/registry.h"
+
+namespace bidex::registry {
+
+// The scores a run contributes: its per-task scores, or, for a task run that recorded none, one
+// score from its final return and success.
+std::vector<TaskScore> effective_scores(const Registry& reg, const RunRecord& run);
+
+struct AgeRow {
+  std::string task, label;            // label: the suite member's label, else the task id
+  bool registered = false;            // the task is in the registry (age and difficulty known)
+  int age_min = 0, age_max = 0;       // months
+  std::string age_text, difficulty;
+  int64_t run = 0;                    // the run the score comes from; 0: no score
+  std::optional<double> mean_return, success, random, ground_truth, normalised;
+  double age_months() const { return 0.5 * (age_min + age_max); }  // the plot's x
+};
+
+struct AgeReport {
+  std::string source;                 // where the scores come from, in words
+  std::vector<AgeRow> rows;           // by age (age_min, age_max, task id, label)
+};
+
+// Which scores: those of `run` (> 0), else of the latest run of `suite` that recorded scores
+// (non-empty), else for every registered task the latest run that scored it (its row empty when
+// none has). An unknown run, or a suite without a scored run, is an Error.
+AgeReport age_report(const Registry& reg, const std::string& suite = "", int64_t run = 0);
+
+// The table as text (one line per row; "-" for a missing value).
+std::string age_table(const AgeReport& report);
+// The ids of the rows without a normalised score (left out of the plot).
+std::vector<std::string> unplotted(const AgeReport& report);
+// Normalised score against human age in months (log scale), one labelled point per row with a
+// normalised score, in age order.
+std::string age_svg(const AgeReport& report);
+
+}  // namespace bidex::registry

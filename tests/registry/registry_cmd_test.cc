@@ -1,0 +1,352 @@
+// apps/cmd_registry: `bidex registry list | add-task | scores | reference | report age`, run as
+// the real binary on temp registries.
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <catch2/catch.hpp>
+
+#include "core/files.h"
+#include "registry/registry.h"
+#include "tests/registry/registry_fixture.h"
+#include "tests/run_command.h"
+
+using namespace bidex;
+using namespace bidex::test;
+using registry::Registry;
+
+namespace {
+
+std::string q(const std::string& s) {
+  std::string out = "'";
+  out.append(s).append("'");
+  return out;
+}
+
+// `bidex registry ARGS --registry PATH`
+CommandResult reg_run(const std::string& args, const std::string& path) {
+  std::string a = "registry ";
+  a.append(args).append(" --registry ").append(q(path));
+  return bidex_run(a);
+}
+
+// Positions of the ids in `out` (each must appear) are increasing.
+void check_order(const std::string& out, const std::vector<std::string>& ids) {
+  size_t last = 0;
+  for (auto& id : ids) {
+    INFO("id " << id);
+    // a table line starts with the id followed by a space
+    const size_t at = out.find("\n" + id + " ");
+    REQUIRE(at != std::string::npos);
+    CHECK(at > last);
+    last = at;
+  }
+}
+
+// The example task file of the README, edited: `from` replaced by `to` (once).
+std::string edited_example(const std::string& from, const std::string& to) {
+  std::string text = read_file(std::string(BIDEX_SOURCE_DIR) + "/configs/registry/example_task.yaml");
+  if (from.empty()) return text;
+  const size_t at = text.find(from);
+  INFO("editing the example: looking for '" << from << "'");
+  REQUIRE(at != std::string::npos);
+  REQUIRE(text.find(from, at + 1) == std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+
+}  // namespace
+
+TEST_CASE("bidex registry list: the paper's tasks, by age with --by age", "[registry][apps]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite");
+  CommandResult r = reg_run("list --by age", path);
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "20 tasks, by human age"));
+  check_order(r.out, paper_tasks_by_age());
+  CHECK(has_text(r.out, "\nhand_over "));
+  // columns: id, age, difficulty, obs, act, origin
+  CHECK(has_row(r.out, {"id", "age", "difficulty", "obs", "act", "origin"}));
+  CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "446", "52", "builtin"}));
+  CHECK(has_row(r.out, {"push_block", "5-6", "easy", "417", "52", "builtin"}));
+  CHECK(has_row(r.out, {"grasp_and_place", "22-28", "medium", "425", "52", "builtin"}));
+
+  r = reg_run("list", path);
+  REQUIRE(r.rc == 0);
+  check_order(r.out, {"hand_over", "catch_underarm", "catch_over2underarm", "catch_abreast",
+                      "two_catch_underarm", "lift_underarm", "door_open_outward"});
+  r = reg_run("list --by colour", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "--by takes 'age'"));
+}
+
+TEST_CASE("bidex registry add-task: the README's example registers in age order",
+          "[registry][apps]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite");
+  // exactly as the README writes it, from the source tree
+  std::string cmd = "cd ";
+  cmd.append(q(BIDEX_SOURCE_DIR)).append(" && ").append(q(BIDEX_BINARY));
+  cmd.append(" registry add-task configs/registry/example_task.yaml --registry ").append(q(path));
+  CommandResult r = run_command(cmd);
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "registered example_bimanual_pour"));
+  r = reg_run("list --by age", path);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "21 tasks"));
+  // 24-30 months: after block_stack and grasp_and_place (22-28), before bottle_cap (30)
+  check_order(r.out, {"grasp_and_place", "example_bimanual_pour", "bottle_cap"});
+  CHECK(has_text(r.out, std::string(BIDEX_SOURCE_DIR) + "/configs/registry/example_task.yaml"));
+  Registry reg(path);
+  const auto t = reg.task("example_bimanual_pour");
+  REQUIRE(t);
+  CHECK(t->age_min == 24);
+  CHECK(t->age_max == 30);
+  CHECK(t->original_name == "ShadowHandExamplePour");
+  CHECK(t->sources.at("age") == "example: a developmental-milestone table");
+  CHECK(t->sources.size() == 3);
+
+  // the same id again: refused, naming the file and the key
+  r = reg_run("add-task " + q(std::string(BIDEX_SOURCE_DIR) + "/configs/registry/example_task.yaml"),
+              path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "example_task.yaml: id: expected an id not registered yet, got "
+                        "'example_bimanual_pour', already registered"));
+}
+
+TEST_CASE("bidex registry add-task refuses a bad file with exit 2, naming file and key, and "
+          "writes nothing", "[registry][apps]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite");
+  struct Case {
+    const char* what;
+    std::string from, to;
+    const char* key;       // in the message as "FILE[:LINE]: KEY: expected ..."
+    const char* expected;
+    const char* actual;
+  };
+  const std::vector<Case> cases = {
+      {"unknown key", "skill:", "colour: red\nskill:", "colour", "one of the keys",
+       "unknown key 'colour'"},
+      {"missing field", "skill: pour from a cup held in one hand into a cup held in the other\n",
+       "", "skill", "a value for the required key", "none"},
+      {"wrong type", "obs_dim: 428", "obs_dim: many", "obs_dim", "an integer", "'many'"},
+      {"age max below min", "max: 30", "max: 12", "age.max", "a number of months >= age.min (24)",
+       "'12'"},
+      {"negative dimension", "act_dim: 52", "act_dim: -52", "act_dim", "an action width >= 1",
+       "'-52'"},
+      {"unknown difficulty", "difficulty: medium", "difficulty: trivial", "difficulty",
+       "easy, medium or hard", "'trivial'"},
+      {"no source of the age", "  age: \"example: a developmental-milestone table\"\n", "",
+       "sources.age", "a value for the required key", "none"},
+      {"duplicate id", "id: example_bimanual_pour", "id: door_open_inward", "id",
+       "an id not registered yet", "'door_open_inward', already registered (origin builtin)"},
+  };
+  // first without a registry file: a bad file creates none
+  {
+    const std::string file = dir.file("bad.yaml");
+    write_file_atomic(file, edited_example("obs_dim: 428", "obs_dim: many"));
+    CommandResult r = reg_run("add-task " + q(file), path);
+    INFO(r.out);
+    CHECK(r.rc == 2);
+    CHECK_FALSE(file_exists(path));
+  }
+  { Registry reg(path); }
+  const std::string before = reg_run("list", path).out;
+  for (auto& c : cases) {
+    INFO(c.what);
+    const std::string file = dir.file(std::string(c.what).append(".yaml"));
+    write_file_atomic(file, edited_example(c.from, c.to));
+    CommandResult r = reg_run("add-task " + q(file), path);
+    INFO(r.out);
+    CHECK(r.rc == 2);
+    CHECK(has_text(r.out, "bidex: error: " + file));
+    CHECK(has_text(r.out, std::string(": ").append(c.key).append(": expected ")));
+    CHECK(has_text(r.out, std::string("expected ").append(c.expected)));
+    CHECK(has_text(r.out, std::string("got ").append(c.actual)));
+    CHECK(reg_run("list", path).out == before);
+  }
+  CommandResult r = reg_run("add-task " + q(dir.file("missing.yaml")), path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, dir.file("missing.yaml")));
+  r = reg_run("add-task", path);
+  CHECK(r.rc == 2);
+  Registry reg(path);
+  CHECK(reg.tasks(false).size() == 20);
+}
+
+TEST_CASE("bidex registry reference and scores", "[registry][apps]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite");
+  CommandResult r = reg_run(
+      "reference --task hand_over --kind random --value 2 --source 'a random policy'", path);
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "hand_over random = 2 (a random policy)"));
+  CHECK(reg_run("reference --task hand_over --kind expert --value 2 --source x", path).rc == 2);
+  CHECK(reg_run("reference --task no_such --kind random --value 2 --source x", path).rc == 2);
+  r = reg_run("reference --task hand_over --kind random --source x", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "missing --value"));
+  {
+    Registry reg(path);
+    CHECK(reg.reference("hand_over", "random")->source == "a random policy");
+    registry::RunRecord run;
+    run.algo = "ppo";
+    run.task = "hand_over";
+    run.seed = 3;
+    run.run_dir = "runs/ho";
+    const int64_t id = reg.begin_run(run);
+    run.steps = 1000000;
+    run.final_return = 16.4;
+    run.final_success = 0.25;
+    reg.finish_run(id, run, {{"hand_over", "", 16.4, 0.25, 64}});
+    registry::RunRecord s;
+    s.algo = "mtppo";
+    s.suite = "MT4";
+    const int64_t sid = reg.begin_run(s);
+    reg.finish_run(sid, s, {{"catch_underarm", "", 8.9, 0.1, 10}, {"hand_over", "", 9.4, 0.0, 12}});
+  }
+  r = reg_run("scores", path);
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "run 1  ppo  hand_over  seed 3  1000000 steps  finished"));
+  CHECK(has_text(r.out, "final return 16.4 (normalised 0.500)  success 0.250"));
+  CHECK(has_text(r.out, "run 2  mtppo  suite MT4"));
+  // per-task scores: (9.4 - 2) / (30.8 - 2) = 0.257; catch_underarm has no random score
+  CHECK(has_row(r.out, {"label", "task", "return", "success", "episodes", "normalised"}));
+  CHECK(has_row(r.out, {"hand_over", "hand_over", "16.4", "0.250", "64", "0.500"}));
+  CHECK(has_row(r.out, {"hand_over", "hand_over", "9.4", "0.000", "12", "0.257"}));
+  CHECK(has_row(r.out, {"catch_underarm", "catch_underarm", "8.9", "0.100", "10", "-"}));
+  CHECK(has_text(r.out, "2 runs in"));
+  r = reg_run("scores --suite MT4", path);
+  CHECK(has_text(r.out, "1 run in"));
+  CHECK_FALSE(has_text(r.out, "run 1 "));
+  r = reg_run("scores --task catch_underarm", path);
+  CHECK(has_text(r.out, "run 2 "));
+  CHECK(has_text(r.out, "1 run in"));
+}
+
+TEST_CASE("bidex registry report age: the table and one plotted point per normalised task, "
+          "in age order", "[registry][apps]") {
+  RegTempDir dir;
+  const std::string path = dir.file("sub/r.sqlite");
+  int64_t suite_run = 0;
+  {
+    Registry reg(path);
+    // random scores for four of the nine tasks with a ground truth
+    reg.set_reference({"hand_over", "random", 2.0, "test"});            // ground truth 30.8
+    reg.set_reference({"door_open_inward", "random", 67, "test"});      // 467
+    reg.set_reference({"door_close_outward", "random", 38, "test"});    // 1038
+    reg.set_reference({"two_catch_underarm", "random", 0.1, "test"});   // 14.1
+    auto task_run = [&](const std::string& task, double ret) {
+      registry::RunRecord r;
+      r.algo = "ppo";
+      r.task = task;
+      const int64_t id = reg.begin_run(r);
+      r.final_return = ret;
+      reg.finish_run(id, r, {{task, "", ret, 0.5, 10}});
+    };
+    task_run("two_catch_underarm", 14.1);  // 1
+    task_run("hand_over", 16.4);           // 0.5
+    task_run("door_open_inward", 167);     // 0.25
+    task_run("door_close_outward", 788);   // 0.75
+    task_run("catch_underarm", 10);        // no random score
+    task_run("pen", 5);                    // no reference at all
+    registry::RunRecord s;
+    s.algo = "mtppo";
+    s.suite = "MT4";
+    suite_run = reg.begin_run(s);
+    reg.finish_run(suite_run, s,
+                   {{"two_catch_underarm", "", 7.1, 0.0, 5}, {"hand_over", "", 30.8, 1.0, 5},
+                    {"catch_underarm", "", 3, 0.0, 5}});
+  }
+  // every task, each with its latest score (the suite run is the latest for three of them)
+  CommandResult r = reg_run("report age", path);
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  check_order(r.out, paper_tasks_by_age());
+  CHECK(has_row(r.out, {"task", "age", "difficulty", "run", "return", "random", "ground_truth",
+                        "normalised"}));
+  // task, age, difficulty, run, return, random, ground truth, normalised (by hand)
+  CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "7", "30.8", "2", "30.8", "1.000"}));
+  CHECK(has_row(r.out, {"door_open_inward", "13", "easy", "3", "167", "67", "467", "0.250"}));
+  CHECK(has_row(r.out, {"door_close_outward", "13", "easy", "4", "788", "38", "1038", "0.750"}));
+  CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "7", "7.1", "0.1", "14.1",
+                        "0.500"}));
+  CHECK(has_row(r.out, {"catch_underarm", "48", "hard", "7", "3", "-", "17.8", "-"}));
+  CHECK(has_row(r.out, {"pen", "7", "easy", "6", "5", "-", "-", "-"}));
+  CHECK(has_row(r.out, {"door_open_outward", "13", "easy", "-", "-", "-", "580", "-"}));
+  CHECK(has_text(r.out, "left out of the plot (no normalised score): push_block, pen, scissors"));
+  CHECK(has_text(r.out, "plot (4 of 20 tasks)"));
+  const std::string svg_file = dir.file("sub/age_report.svg");  // beside the registry
+  REQUIRE(file_exists(svg_file));
+  const std::string svg = read_file(svg_file);
+  // one point per task with both references and a score, labelled, in age order, x increasing
+  std::vector<std::string> labels;
+  std::vector<double> xs;
+  for (size_t p = svg.find("<circle cx=\""); p != std::string::npos;
+       p = svg.find("<circle cx=\"", p + 1)) {
+    xs.push_back(std::stod(svg.substr(p + 12)));
+    const size_t t = svg.find("font-size=\"10\">", p);
+    REQUIRE(t != std::string::npos);
+    const size_t b = t + 15;
+    labels.push_back(svg.substr(b, svg.find('<', b) - b));
+  }
+  CHECK(labels == std::vector<std::string>{"hand_over", "door_close_outward", "door_open_inward",
+                                           "two_catch_underarm"});
+  REQUIRE(xs.size() == 4);
+  CHECK(xs[0] < xs[1]);
+  CHECK(xs[1] == xs[2]);  // both doors at 13 months
+  CHECK(xs[2] < xs[3]);
+  CHECK(has_text(svg, "left out, no normalised score: push_block, pen"));
+
+  // the suite's latest run only, to a chosen file
+  const std::string out = dir.file("suite.svg");
+  r = reg_run("report age --suite MT4 --out " + q(out), path);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "scores of suite MT4, its latest scored run 7 (mtppo)"));
+  CHECK(has_text(r.out, "plot (2 of 3 tasks)"));
+  check_order(r.out, {"hand_over", "catch_underarm", "two_catch_underarm"});
+  CHECK_FALSE(has_text(r.out, "\npen "));
+  REQUIRE(file_exists(out));
+  // the same run by id
+  r = reg_run("report age --run " + std::to_string(suite_run) + " --out " + q(out), path);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "scores of run 7 (mtppo, suite MT4)"));
+  r = reg_run("report age --run 4 --out " + q(out), path);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "\ndoor_close_outward "));
+  CHECK(has_text(r.out, "plot (1 of 1 tasks)"));
+  // bad choices: exit 2
+  CHECK(reg_run("report age --run 99", path).rc == 2);
+  CHECK(reg_run("report age --suite ML20", path).rc == 2);
+  CHECK(reg_run("report age --suite MT4 --run 7", path).rc == 2);
+}
+
+TEST_CASE("every bidex registry command has --help naming --registry", "[registry][apps]") {
+  for (const char* c : {"list", "add-task", "scores", "reference", "report age"}) {
+    INFO(c);
+    CommandResult r = bidex_run(std::string("registry ").append(c).append(" --help"));
+    CHECK(r.rc == 0);
+    CHECK(has_text(r.out, "--registry"));
+  }
+  CommandResult r = bidex_run("registry --help");
+  CHECK(r.rc == 0);
+  for (const char* c : {"list", "add-task", "scores", "reference", "report"}) CHECK(has_text(r.out, c));
+}
+
+TEST_CASE("a registry file that is not SQLite: exit 2 naming it", "[registry][apps]") {
+  RegTempDir dir;
+  const std::string path = dir.file("text.sqlite");
+  std::string junk;
+  for (int i = 0; i < 100; ++i) junk.append("plain text, not a database\n");
+  write_file_atomic(path, junk);
+  CommandResult r = reg_run("list", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, path));
+  CHECK(has_text(r.out, "not a bidex registry"));
+  CHECK(read_file(path) == junk);
+}

@@ -1,0 +1,604 @@
+// registry/: creating a registry (schema version, WAL mode, the built-in tasks in age order with
+// their sources, the reference scores), migrating a version-1 file, refusing newer and
+// non-SQLite files, runs and scores, normalised scores, two processes writing at once.
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <catch2/catch.hpp>
+
+#include "core/error.h"
+#include "core/files.h"
+#include "registry/registry.h"
+#include "registry/report.h"
+#include "tasks/registry.h"
+#include "tests/registry/registry_fixture.h"
+
+using namespace bidex;
+using namespace bidex::test;
+using registry::Registry;
+
+namespace {
+
+// The ground truth of configs/registry/references.yaml: the original code's final PPO returns,
+// written out here by hand.
+const std::vector<std::pair<std::string, double>> kGroundTruth = {
+    {"hand_over", 30.8},          {"catch_underarm", 17.8},    {"catch_over2underarm", 28.4},
+    {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1}, {"door_open_inward", 467},
+    {"door_open_outward", 580},   {"door_close_inward", 295},  {"door_close_outward", 1038}};
+
+std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
+  std::vector<std::string> out;
+  for (auto& t : ts) out.push_back(t.id);
+  return out;
+}
+
+// The message of the bidex::Error that `f` throws.
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  FAIL("expected a bidex::Error, none was thrown");
+  return "";
+}
+
+}  // namespace
+
+TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age with their "
+          "sources, the reference scores", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("nested/folder/registry.sqlite");  // folders are created
+  {
+    Registry reg(path);
+    CHECK(reg.path() == path);
+
+    // the paper's twenty, in the paper's order and in age order (written out by hand)
+    const auto& builtin = tasks::task_registry();
+    REQUIRE(builtin.size() == 20);
+    const auto by_reg = reg.tasks(false);
+    REQUIRE(by_reg.size() == 20);
+    for (size_t i = 0; i < builtin.size(); ++i) CHECK(by_reg[i].id == builtin[i].spec().id);
+    CHECK(ids(reg.tasks(true)) == paper_tasks_by_age());
+
+    for (auto& e : builtin) {
+      const auto& sp = e.spec();
+      INFO(sp.id);
+      const auto t = reg.task(sp.id);
+      REQUIRE(t);
+      CHECK(t->version == sp.version);
+      CHECK(t->paper_name == sp.paper_name);
+      CHECK(t->original_name == sp.original_name);
+      CHECK(t->age_min == sp.age.min_months);
+      CHECK(t->age_max == sp.age.max_months);
+      CHECK(t->age_text == sp.age.text);
+      CHECK(t->difficulty == tasks::difficulty_name(sp.difficulty));
+      CHECK(t->skill == sp.skill);
+      CHECK(t->obs_dim == sp.obs.dim());
+      CHECK(t->act_dim == sp.act.dim());
+      CHECK(t->origin == "builtin");
+      CHECK(t->sources.size() == 7);
+      const std::string table = sp.age.from_commented_row
+                                    ? "paper source, a commented-out row of the task table"
+                                    : "paper, task table";
+      CHECK(t->sources.at("age") == table);
+      CHECK(t->sources.at("difficulty") == table);
+      CHECK(t->sources.at("skill") == table);
+      CHECK(t->sources.at("act_dim") == "paper, observation and action tables");
+      CHECK(t->sources.at("obs_dim") == (sp.id == "grasp_and_place"
+                                             ? "original code; the paper gives no table"
+                                             : "paper, observation and action tables"));
+      CHECK(t->sources.at("names") == "bidex task spec");
+      CHECK(t->sources.at("version") == "bidex task spec");
+    }
+    // spot checks against the paper's table, by hand
+    CHECK(reg.task("hand_over")->age_text == "9-10");
+    CHECK(reg.task("hand_over")->sources.at("age") ==
+          "paper source, a commented-out row of the task table");
+    CHECK(reg.task("catch_underarm")->sources.at("age") == "paper, task table");
+    CHECK(reg.task("two_catch_underarm")->age_min == 216);
+    CHECK(reg.task("grasp_and_place")->obs_dim == 425);
+    CHECK_FALSE(reg.task("catch_underarm_raise"));  // variants are not registered
+
+    // the nine ground truths, no random score yet
+    const auto refs = reg.references();
+    CHECK(refs.size() == kGroundTruth.size());
+    for (auto& [task, value] : kGroundTruth) {
+      INFO(task);
+      const auto r = reg.reference(task, "ground_truth");
+      REQUIRE(r);
+      CHECK(r->value == Approx(value));
+      CHECK(r->source ==
+            "original code's published PPO learning curves, final value near 1e8 steps, mean "
+            "of 10 seeds");
+      CHECK_FALSE(reg.reference(task, "random"));
+    }
+    CHECK_FALSE(reg.reference("pen", "ground_truth"));
+  }
+  // read back without bidex
+  RawDb raw(path);
+  CHECK(registry::schema_version() == 2);
+  CHECK(raw.value("PRAGMA user_version") == "2");
+  CHECK(raw.value("PRAGMA journal_mode") == "wal");
+  CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
+  CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
+  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "9");
+}
+
+TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite");
+  {
+    Registry reg(path);
+    reg.set_reference({"hand_over", "ground_truth", 25.0, "my own run"});
+    reg.set_reference({"hand_over", "random", 0.5, "bidex play --policy random"});
+  }
+  Registry reg(path);
+  CHECK(reg.tasks(false).size() == 20);
+  CHECK(reg.references().size() == 10);
+  CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
+  CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
+  CHECK(reg.reference("hand_over", "random")->value == 0.5);
+  CHECK_THROWS_AS(reg.set_reference({"no_such_task", "random", 1, "x"}), Error);
+  CHECK_THROWS_AS(reg.set_reference({"pen", "expert", 1, "x"}), Error);
+  CHECK_THROWS_AS(reg.set_reference({"pen", "random", NAN, "x"}), Error);
+  CHECK_THROWS_AS(reg.set_reference({"pen", "random", 1, ""}), Error);
+}
+
+TEST_CASE("normalised score = (return - random) / (ground truth - random), empty without a "
+          "reference", "[registry]") {
+  RegTempDir dir;
+  Registry reg(dir.file("r.sqlite"));
+  // hand_over: ground truth 30.8 (references.yaml), random 2 set here
+  reg.set_reference({"hand_over", "random", 2.0, "test"});
+  // by hand: (16.4 - 2) / (30.8 - 2) = 14.4 / 28.8 = 0.5
+  REQUIRE(reg.normalised("hand_over", 16.4));
+  CHECK(*reg.normalised("hand_over", 16.4) == Approx(0.5));
+  CHECK(*reg.normalised("hand_over", 2.0) == Approx(0.0).margin(1e-12));
+  CHECK(*reg.normalised("hand_over", 30.8) == Approx(1.0));
+  CHECK(*reg.normalised("hand_over", -12.4) == Approx(-0.5));  // below random: negative
+  CHECK(*reg.normalised("hand_over", 45.2) == Approx(1.5));    // above ground truth: > 1
+  // a random score above the return and a ground truth below it: the sign still follows
+  reg.set_reference({"pen", "random", 10.0, "test"});
+  reg.set_reference({"pen", "ground_truth", -10.0, "test"});
+  CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
+  // missing references
+  CHECK_FALSE(reg.normalised("catch_underarm", 10.0));  // ground truth only
+  reg.set_reference({"switch", "random", 1.0, "test"});
+  CHECK_FALSE(reg.normalised("switch", 10.0));          // random only
+  CHECK_FALSE(reg.normalised("scissors", 10.0));        // none
+  CHECK_FALSE(reg.normalised("no_such_task", 10.0));
+  // equal references cannot normalise
+  reg.set_reference({"scissors", "random", 3.0, "test"});
+  reg.set_reference({"scissors", "ground_truth", 3.0, "test"});
+  CHECK_FALSE(reg.normalised("scissors", 10.0));
+}
+
+TEST_CASE("runs, their scores and suites round-trip", "[registry]") {
+  RegTempDir dir;
+  Registry reg(dir.file("r.sqlite"));
+  registry::RunRecord r;
+  r.algo = "ppo";
+  r.task = "hand_over";
+  r.seed = std::numeric_limits<uint64_t>::max();  // stored as the signed 64-bit pattern
+  r.config_hash = "abc123";
+  r.code_version = "0.1.0";
+  r.run_dir = "runs/hand_over-ppo";
+  r.host = "testhost";
+  const int64_t id = reg.begin_run(r);
+  CHECK(id >= 1);
+  {
+    const auto got = reg.run(id);
+    REQUIRE(got);
+    CHECK(got->status == "running");
+    CHECK(got->seed == std::numeric_limits<uint64_t>::max());
+    CHECK(got->started.size() == 20);  // 2026-11-22T15:00:00Z
+    CHECK(got->finished.empty());
+    CHECK(got->host == "testhost");
+    CHECK_FALSE(got->final_return);
+  }
+  r.steps = 123456;
+  r.status = "stopped";
+  r.final_return = 12.5;
+  r.final_success = 0.25;
+  reg.finish_run(id, r, {{"hand_over", "", 12.5, 0.25, 40}});
+  {
+    const auto got = reg.run(id);
+    CHECK(got->status == "stopped");
+    CHECK(got->steps == 123456);
+    CHECK(got->final_return == 12.5);
+    CHECK(got->final_success == 0.25);
+    CHECK(got->finished.size() == 20);
+    const auto s = reg.scores(id);
+    REQUIRE(s.size() == 1);
+    CHECK(s[0].label == "hand_over");  // an empty label is the task id
+    CHECK(s[0].episodes == 40);
+  }
+  // finishing again replaces the scores
+  r.status = "finished";
+  reg.finish_run(id, r, {{"hand_over", "", 14.0, std::nullopt, 10}});
+  CHECK(reg.scores(id).size() == 1);
+  CHECK(reg.scores(id)[0].mean_return == 14.0);
+  CHECK_FALSE(reg.scores(id)[0].success);
+
+  // a suite run with a score per member, kept in order
+  registry::RunRecord s;
+  s.algo = "ppo";
+  s.suite = "MT4";
+  const int64_t sid = reg.begin_run(s);
+  CHECK(sid > id);
+  reg.finish_run(sid, s,
+                 {{"two_catch_underarm", "two_catch_underarm", 5, 0.1, 3},
+                  {"catch_underarm", "catch_underarm", 6, 0.2, 4},
+                  {"hand_over", "hand_over_free", 7, std::nullopt, 5}});
+  const auto ss = reg.scores(sid);
+  REQUIRE(ss.size() == 3);
+  CHECK(ss[0].task == "two_catch_underarm");
+  CHECK(ss[2].label == "hand_over_free");
+  CHECK(reg.runs().size() == 2);
+  CHECK(reg.runs()[1].suite == "MT4");
+  CHECK(reg.runs()[1].task.empty());
+
+  // errors
+  CHECK_THROWS_AS(reg.finish_run(9999, r, {}), Error);
+  registry::RunRecord bad = r;
+  bad.status = "exploded";
+  CHECK_THROWS_AS(reg.finish_run(id, bad, {}), Error);
+  CHECK_THROWS_AS(reg.finish_run(id, r, {{"pen", "x", 1, 0, 1}, {"pen", "x", 2, 0, 1}}), Error);
+  bad = r;
+  bad.suite = "MT4";  // a task and a suite
+  CHECK_THROWS_AS(reg.begin_run(bad), Error);
+  bad = registry::RunRecord{};
+  bad.algo = "ppo";  // neither
+  CHECK_THROWS_AS(reg.begin_run(bad), Error);
+
+  // suites: put, then replace
+  registry::SuiteRecord suite{"MT4", "multitask", "configs/suites/MT4.yaml", "four catch tasks", {}};
+  suite.members = {{"catch_underarm", "catch_underarm", "train", 1.0},
+                   {"hand_over", "hand_over", "train", 0.1},
+                   {"catch_underarm", "catch_underarm", "test", 1.0}};
+  reg.put_suite(suite);
+  auto got = reg.suites();
+  REQUIRE(got.size() == 1);
+  CHECK(got[0].members.size() == 3);
+  CHECK(got[0].members[1].reward_scale == 0.1);
+  suite.members.pop_back();
+  suite.description = "changed";
+  reg.put_suite(suite);
+  got = reg.suites();
+  REQUIRE(got.size() == 1);
+  CHECK(got[0].description == "changed");
+  CHECK(got[0].members.size() == 2);
+  suite.members[0].split = "validation";
+  CHECK_THROWS_AS(reg.put_suite(suite), Error);
+  CHECK(reg.suites()[0].members.size() == 2);  // nothing written
+}
+
+TEST_CASE("adding a task: registered in age order; a duplicate or impossible one is refused",
+          "[registry]") {
+  RegTempDir dir;
+  Registry reg(dir.file("r.sqlite"));
+  registry::TaskRecord t;
+  t.id = "toddler_task";
+  t.paper_name = "Toddler Task";
+  t.age_min = 14;
+  t.age_max = 16;
+  t.age_text = "14-16";
+  t.difficulty = "medium";
+  t.skill = "a skill";
+  t.obs_dim = 10;
+  t.act_dim = 4;
+  t.origin = "/somewhere/toddler.yaml";
+  t.sources["age"] = "a book";
+  reg.add_task(t);
+  const auto by_age = ids(reg.tasks(true));
+  REQUIRE(by_age.size() == 21);
+  CHECK(by_age[13] == "toddler_task");  // after the four doors at 13, before re_orientation 18
+  CHECK(by_age[14] == "re_orientation");
+  CHECK(reg.task("toddler_task")->sources.at("age") == "a book");
+  CHECK(reg.task("toddler_task")->origin == "/somewhere/toddler.yaml");
+  CHECK_THAT(error_of([&] { reg.add_task(t); }), Catch::Contains("already registered"));
+  registry::TaskRecord dup = t;
+  dup.id = "hand_over";
+  CHECK_THAT(error_of([&] { reg.add_task(dup); }), Catch::Contains("'hand_over'"));
+  CHECK(reg.task("hand_over")->origin == "builtin");
+  registry::TaskRecord bad = t;
+  bad.id = "bad";
+  bad.age_max = 10;
+  CHECK_THROWS_AS(reg.add_task(bad), Error);
+  bad = t;
+  bad.id = "bad";
+  bad.difficulty = "impossible";
+  CHECK_THROWS_AS(reg.add_task(bad), Error);
+  bad = t;
+  bad.id = "bad";
+  bad.obs_dim = -3;
+  CHECK_THROWS_AS(reg.add_task(bad), Error);
+  CHECK(reg.tasks(false).size() == 21);
+}
+
+TEST_CASE("a version-1 file with data is migrated to version 2, its data kept", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("old.sqlite");
+  {
+    RawDb raw(path);
+    raw.exec(registry::migration_sql(1));
+    raw.exec("PRAGMA user_version = 1");
+    // a version-1 registry as the version-1 code left it: a built-in task with dimensions since
+    // changed, a task added by hand, runs, and a reference score without a source
+    raw.exec(
+        "INSERT INTO tasks VALUES ('hand_over', 1, 'Hand Over', 'ShadowHandOver', 9, 10, '9-10', "
+        "'easy', 'old skill text', 999, 40, 'builtin');"
+        "INSERT INTO tasks VALUES ('old_task', 3, 'Old Task', '', 20, 22, '20-22', 'hard', "
+        "'an old skill', 100, 20, '/old/old_task.yaml');"
+        "INSERT INTO runs (algo, task, seed, steps, started, finished, status, final_return, "
+        "final_success) VALUES ('ppo', 'hand_over', 7, 1000, '2026-01-01T00:00:00Z', "
+        "'2026-01-01T01:00:00Z', 'finished', 20.5, 0.5);"
+        "INSERT INTO runs (algo, task, seed, started, status) VALUES ('ppo', 'old_task', 8, "
+        "'2026-01-02T00:00:00Z', 'running');"
+        "INSERT INTO reference_scores VALUES ('hand_over', 'random', 1.5);"
+        "INSERT INTO reference_scores VALUES ('old_task', 'ground_truth', 50);");
+    CHECK(raw.value("SELECT count(*) FROM sqlite_master WHERE name = 'run_scores'") == "0");
+  }
+  {
+    Registry reg(path);
+    // tasks: the built-in one brought up to date, the hand-added one kept
+    CHECK(reg.tasks(false).size() == 21);
+    CHECK(reg.task("hand_over")->obs_dim == 398);
+    CHECK(reg.task("hand_over")->sources.at("age") ==
+          "paper source, a commented-out row of the task table");
+    const auto old = reg.task("old_task");
+    REQUIRE(old);
+    CHECK(old->version == 3);
+    CHECK(old->age_text == "20-22");
+    CHECK(old->origin == "/old/old_task.yaml");
+    CHECK(old->sources.empty());
+    // runs kept, with the new column's default
+    const auto runs = reg.runs();
+    REQUIRE(runs.size() == 2);
+    CHECK(runs[0].id == 1);
+    CHECK(runs[0].task == "hand_over");
+    CHECK(runs[0].suite.empty());
+    CHECK(runs[0].seed == 7);
+    CHECK(runs[0].steps == 1000);
+    CHECK(runs[0].final_return == 20.5);
+    CHECK(runs[0].finished == "2026-01-01T01:00:00Z");
+    CHECK(runs[1].status == "running");
+    // reference scores kept, their unknown source said so; the ground truths added beside them
+    const auto random = reg.reference("hand_over", "random");
+    REQUIRE(random);
+    CHECK(random->value == 1.5);
+    CHECK_THAT(random->source, Catch::Contains("schema version 1"));
+    CHECK(reg.reference("old_task", "ground_truth")->value == 50);
+    CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(30.8));
+    CHECK(reg.references().size() == 11);
+    // the new tables work, also for the old runs
+    registry::RunRecord done = runs[1];
+    done.status = "finished";
+    reg.finish_run(2, done, {{"old_task", "", 30, 0.5, 5}});
+    CHECK(reg.scores(2).size() == 1);
+    CHECK(reg.run(2)->status == "finished");
+    reg.put_suite({"S", "multitask", "", "", {{"a", "hand_over", "train", 1.0}}});
+    CHECK(reg.suites().size() == 1);
+    registry::RunRecord s;
+    s.algo = "ppo";
+    s.suite = "S";
+    CHECK(reg.begin_run(s) == 3);
+    CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (30.8 - 1.5)));
+  }
+  RawDb raw(path);
+  CHECK(raw.value("PRAGMA user_version") == "2");
+  CHECK(raw.value("PRAGMA journal_mode") == "wal");
+  for (const char* table : {"task_sources", "suites", "suite_members", "run_scores"}) {
+    INFO(table);
+    CHECK(raw.value(std::string("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
+                                "name = '").append(table).append("'")) == "1");
+  }
+}
+
+TEST_CASE("the migration steps run in order and every one is needed", "[registry]") {
+  CHECK_THROWS_AS(registry::migration_sql(0), Error);
+  CHECK_THROWS_AS(registry::migration_sql(registry::schema_version() + 1), Error);
+  // a new file runs every step: its schema equals version 1's followed by step 2's
+  RegTempDir dir;
+  { Registry reg(dir.file("new.sqlite")); }
+  {
+    RawDb raw(dir.file("by_hand.sqlite"));
+    for (int v = 1; v <= registry::schema_version(); ++v) raw.exec(registry::migration_sql(v));
+  }
+  RawDb a(dir.file("new.sqlite")), b(dir.file("by_hand.sqlite"));
+  const std::string q = "SELECT sql FROM sqlite_master WHERE sql IS NOT NULL ORDER BY name";
+  CHECK(a.column(q) == b.column(q));
+  // 7 tables, sqlite_sequence (of AUTOINCREMENT) and 3 indices
+  CHECK(a.column(q).size() == 11);
+}
+
+TEST_CASE("a registry of a newer schema version is refused and left untouched", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("future.sqlite");
+  {
+    RawDb raw(path);
+    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 3");
+  }
+  const std::string before = read_file(path);
+  const std::string msg = error_of([&] { Registry reg(path); });
+  CHECK_THAT(msg, Catch::Contains(path));
+  CHECK_THAT(msg, Catch::Contains("schema version 3 is newer"));
+  CHECK_THAT(msg, Catch::Contains("(2)"));
+  CHECK(read_file(path) == before);
+  RawDb raw(path);
+  CHECK(raw.value("PRAGMA user_version") == "3");
+}
+
+TEST_CASE("a file that is not an SQLite registry is refused, naming it", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("notes.sqlite");
+  std::string text;
+  for (int i = 0; i < 200; ++i) text.append("these are my notes, not a database\n");
+  write_file_atomic(path, text);
+  std::string msg = error_of([&] { Registry reg(path); });
+  CHECK_THAT(msg, Catch::Contains(path));
+  CHECK_THAT(msg, Catch::Contains("not a bidex registry"));
+  CHECK(read_file(path) == text);
+  CHECK_FALSE(file_exists(path + "-wal"));
+
+  // an SQLite file of something else
+  const std::string other = dir.file("other.sqlite");
+  {
+    RawDb raw(other);
+    raw.exec("CREATE TABLE recipes (name TEXT)");
+  }
+  msg = error_of([&] { Registry reg(other); });
+  CHECK_THAT(msg, Catch::Contains(other));
+  CHECK_THAT(msg, Catch::Contains("recipes"));
+  RawDb raw(other);
+  CHECK(raw.value("SELECT count(*) FROM sqlite_master WHERE name = 'tasks'") == "0");
+  CHECK(raw.value("PRAGMA journal_mode") == "delete");  // not switched to WAL either
+}
+
+TEST_CASE("two processes recording 200 runs each at once lose nothing", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("shared.sqlite");
+  constexpr int kRuns = 200;
+  int ready[2], go[2];
+  REQUIRE(::pipe(ready) == 0);
+  REQUIRE(::pipe(go) == 0);
+  pid_t pids[2];
+  for (int k = 0; k < 2; ++k) {
+    pids[k] = ::fork();
+    REQUIRE(pids[k] >= 0);
+    if (pids[k] == 0) {
+      // child: open the registry (both children create it at once), say so, wait for the start
+      // signal, record runs; the exit status says whether everything went through
+      int status = 0;
+      try {
+        ::close(ready[0]);
+        ::close(go[1]);
+        Registry reg(path);
+        if (::write(ready[1], "r", 1) != 1) status = 3;
+        ::close(ready[1]);
+        char c;
+        if (::read(go[0], &c, 1) != 0) status = 3;  // EOF is the signal
+        for (int i = 0; i < kRuns; ++i) {
+          registry::RunRecord r;
+          r.algo = "ppo";
+          r.task = k == 0 ? "hand_over" : "catch_underarm";
+          r.seed = static_cast<uint64_t>(1000 * k + i);
+          const int64_t id = reg.begin_run(r);
+          ::usleep(200);  // "training": the other writer gets the processor and the lock
+          r.steps = i;
+          r.final_return = i;
+          reg.finish_run(id, r, {{r.task, "", static_cast<double>(i), 0.5, 1}});
+          ::usleep(200);
+          if (i % 20 == 0)  // a write that reads first
+            reg.set_reference({k == 0 ? "pen" : "switch", "random", static_cast<double>(i),
+                               "concurrency test"});
+        }
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "writer %d: %s\n", k, e.what());
+        status = 1;
+      }
+      ::_exit(status);
+    }
+  }
+  ::close(ready[1]);
+  ::close(go[0]);
+  char buf[2];
+  size_t got = 0;
+  while (got < 2) {  // both opened (EOF early: a writer failed to open; it is reported below)
+    const ssize_t n = ::read(ready[0], buf + got, 2 - got);
+    if (n <= 0) break;
+    got += static_cast<size_t>(n);
+  }
+  ::close(ready[0]);
+  ::close(go[1]);  // both start now
+  for (int k = 0; k < 2; ++k) {
+    int st = 0;
+    REQUIRE(::waitpid(pids[k], &st, 0) == pids[k]);
+    INFO("writer " << k);
+    CHECK(WIFEXITED(st));
+    CHECK(WEXITSTATUS(st) == 0);
+  }
+  Registry reg(path);
+  const auto runs = reg.runs();
+  CHECK(runs.size() == 2 * kRuns);
+  std::set<int64_t> ids;
+  std::set<uint64_t> seeds;
+  for (auto& r : runs) {
+    ids.insert(r.id);
+    seeds.insert(r.seed);
+    CHECK(r.status == "finished");
+    CHECK(reg.scores(r.id).size() == 1);
+  }
+  CHECK(ids.size() == 2 * kRuns);
+  CHECK(seeds.size() == 2 * kRuns);
+  // the writers really overlapped: in id order the runs pass from one writer to the other and
+  // back (one writer finishing before the other starts would give one change; the two
+  // interleave by the hundreds)
+  int changes = 0;
+  for (size_t i = 1; i < runs.size(); ++i)
+    changes += (runs[i].seed >= 1000) != (runs[i - 1].seed >= 1000);
+  INFO("changes of writer in id order: " << changes);
+  CHECK(changes >= 10);
+  CHECK(*seeds.begin() == 0);
+  CHECK(*seeds.rbegin() == 1000 + kRuns - 1);
+  CHECK(reg.reference("pen", "random")->value == 180);
+  CHECK(reg.reference("switch", "random")->value == 180);
+  CHECK(reg.tasks(false).size() == 20);
+}
+
+TEST_CASE("the age report: latest score per task, references, normalised, age order",
+          "[registry]") {
+  RegTempDir dir;
+  Registry reg(dir.file("r.sqlite"));
+  reg.set_reference({"hand_over", "random", 2.0, "test"});
+  reg.set_reference({"door_open_inward", "random", 67, "test"});
+  auto task_run = [&](const std::string& task, double ret) {
+    registry::RunRecord r;
+    r.algo = "ppo";
+    r.task = task;
+    const int64_t id = reg.begin_run(r);
+    r.final_return = ret;
+    reg.finish_run(id, r, {});  // no per-task scores: the final return stands for the task
+    return id;
+  };
+  task_run("hand_over", 30.8);                           // older: replaced by the next
+  const int64_t ho = task_run("hand_over", 16.4);        // (16.4 - 2) / 28.8 = 0.5
+  const int64_t doi = task_run("door_open_inward", 167); // (167 - 67) / 400 = 0.25
+  task_run("catch_underarm", 10);                        // no random score: not normalised
+  const auto rep = registry::age_report(reg);
+  REQUIRE(rep.rows.size() == 20);
+  for (size_t i = 0; i < rep.rows.size(); ++i) CHECK(rep.rows[i].task == paper_tasks_by_age()[i]);
+  auto row = [&](const std::string& t) {
+    for (auto& r : rep.rows)
+      if (r.task == t) return r;
+    FAIL("no row " << t);
+    return registry::AgeRow{};
+  };
+  CHECK(row("hand_over").run == ho);
+  CHECK(*row("hand_over").normalised == Approx(0.5));
+  CHECK(*row("door_open_inward").normalised == Approx(0.25));
+  CHECK(row("door_open_inward").run == doi);
+  CHECK(*row("catch_underarm").mean_return == 10);
+  CHECK_FALSE(row("catch_underarm").normalised);
+  CHECK(*row("catch_underarm").ground_truth == Approx(17.8));
+  CHECK_FALSE(row("pen").mean_return);
+  CHECK(registry::unplotted(rep).size() == 18);
+  const std::string svg = registry::age_svg(rep);
+  size_t n = 0;
+  for (size_t p = svg.find("<circle"); p != std::string::npos; p = svg.find("<circle", p + 1)) ++n;
+  CHECK(n == 2);
+  CHECK(svg.find(">hand_over<") < svg.find(">door_open_inward<"));
+  CHECK(svg.find(">pen<") == std::string::npos);
+  CHECK_THAT(svg, Catch::Contains("left out, no normalised score: push_block, pen"));
+  CHECK_THROWS_AS(registry::age_report(reg, "", 999), Error);
+  CHECK_THROWS_AS(registry::age_report(reg, "MT4"), Error);
+}
