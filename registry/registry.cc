@@ -15,6 +15,7 @@
 #include "core/yaml.h"
 #include "registry/sql.h"
 #include "sim/hand_spec.h"
+#include "taskpack/suite.h"
 #include "tasks/registry.h"
 
 namespace bidex::registry {
@@ -354,7 +355,10 @@ std::string migration_sql(int to_version) {
   return kMigrations[to_version - 1];
 }
 
-std::string references_path() { return sim::data_dir() + "/configs/registry/references.yaml"; }
+std::string references_path() {
+  if (const char* e = std::getenv("BIDEX_REFERENCES"); e && *e) return e;
+  return sim::data_dir() + "/configs/registry/references.yaml";
+}
 
 std::string default_path() {
   if (const char* env = std::getenv("BIDEX_REGISTRY"); env && *env) return env;
@@ -440,10 +444,46 @@ Registry::Registry(const std::string& path) : path_(path) {
     for (auto& e : tasks::task_registry()) upsert_task(db_, path_, builtin_record(e.spec()));
     load_references(db_, path_);
     txn.commit();
+    sync_suites();
   } catch (...) {
     sqlite3_close(db_);
     db_ = nullptr;
     throw;
+  }
+}
+
+// The suites of configs/suites, as records (members: train entries, then test entries; a
+// multi-task suite's test split is its train split and is not repeated).
+namespace {
+SuiteRecord suite_record(const taskpack::Suite& su) {
+  SuiteRecord r;
+  r.id = su.id;
+  r.mode = taskpack::mode_name(su.mode);
+  r.file = su.file;
+  r.description = su.description;
+  for (auto& e : su.train) r.members.push_back({e.label, e.task, "train", e.reward_scale});
+  if (su.mode != taskpack::PackMode::kMultiTask)
+    for (auto& e : su.test) r.members.push_back({e.label, e.task, "test", e.reward_scale});
+  return r;
+}
+}  // namespace
+
+void Registry::sync_suites() {
+  const auto have = suites();
+  for (const std::string& id : taskpack::known_suites()) {
+    const SuiteRecord want = suite_record(taskpack::load_suite(id));
+    bool same = false;
+    for (auto& h : have) {
+      if (h.id != want.id) continue;
+      same = h.mode == want.mode && h.file == want.file && h.description == want.description &&
+             h.members.size() == want.members.size();
+      for (size_t i = 0; same && i < h.members.size(); ++i)
+        same = h.members[i].label == want.members[i].label &&
+               h.members[i].task == want.members[i].task &&
+               h.members[i].split == want.members[i].split &&
+               h.members[i].reward_scale == want.members[i].reward_scale;
+    }
+    if (!same) put_suite(want);  // written only when the suite file changed
   }
 }
 

@@ -20,7 +20,8 @@ int schema_version();
 // A new file runs every step in order from version 0 (registry/README.md lists them).
 std::string migration_sql(int to_version);
 
-// The reference scores loaded on open: configs/registry/references.yaml under sim::data_dir().
+// The reference scores loaded on open: $BIDEX_REFERENCES when set, else
+// configs/registry/references.yaml under sim::data_dir().
 std::string references_path();
 
 // --registry PATH, else $BIDEX_REGISTRY, else runs/registry.sqlite (relative to the working
@@ -114,6 +115,9 @@ class Registry {
   std::optional<double> normalised(const std::string& task, double mean_return) const;
 
  private:
+  // Brings the suites table up to date with configs/suites (the suites taskpack knows).
+  void sync_suites();
+
   std::string path_;
   sqlite3* db_ = nullptr;
 };

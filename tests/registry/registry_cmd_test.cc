@@ -179,6 +179,7 @@ TEST_CASE("bidex registry add-task refuses a bad file with exit 2, naming file a
 
 TEST_CASE("bidex registry reference and scores", "[registry][apps]") {
   RegTempDir dir;
+  GroundTruthOnly references(dir);  // the random scores are set here
   const std::string path = dir.file("r.sqlite");
   CommandResult r = reg_run(
       "reference --task hand_over --kind random --value 2 --source 'a random policy'", path);
@@ -232,6 +233,7 @@ TEST_CASE("bidex registry reference and scores", "[registry][apps]") {
 TEST_CASE("bidex registry report age: the table and one plotted point per normalised task, "
           "in age order", "[registry][apps]") {
   RegTempDir dir;
+  GroundTruthOnly references(dir);  // the random scores are set here
   const std::string path = dir.file("sub/r.sqlite");
   int64_t suite_run = 0;
   {

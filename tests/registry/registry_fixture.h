@@ -109,6 +109,34 @@ inline const std::vector<std::string>& paper_tasks_by_age() {
   return ids;
 }
 
+// For tests that set every random score themselves: the shipped references.yaml without its
+// measured `random:` section, in `dir`, named by BIDEX_REFERENCES (for this process and the bidex
+// processes it starts) for the life of this object.
+class GroundTruthOnly {
+ public:
+  explicit GroundTruthOnly(const RegTempDir& dir) {
+    std::FILE* in = std::fopen(BIDEX_SOURCE_DIR "/configs/registry/references.yaml", "r");
+    REQUIRE(in != nullptr);
+    std::string text;
+    char buf[4096];
+    size_t n;
+    while ((n = std::fread(buf, 1, sizeof buf, in)) > 0) text.append(buf, n);
+    std::fclose(in);
+    const size_t cut = text.find("\nrandom:");
+    REQUIRE(cut != std::string::npos);
+    text.resize(cut + 1);
+    const std::string path = dir.file("ground_truth_only.yaml");
+    std::FILE* out = std::fopen(path.c_str(), "w");
+    REQUIRE(out != nullptr);
+    std::fwrite(text.data(), 1, text.size(), out);
+    std::fclose(out);
+    ::setenv("BIDEX_REFERENCES", path.c_str(), 1);
+  }
+  ~GroundTruthOnly() { ::unsetenv("BIDEX_REFERENCES"); }
+  GroundTruthOnly(const GroundTruthOnly&) = delete;
+  GroundTruthOnly& operator=(const GroundTruthOnly&) = delete;
+};
+
 inline bool has_text(const std::string& s, const std::string& what) {
   return s.find(what) != std::string::npos;
 }

@@ -108,9 +108,9 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.task("grasp_and_place")->obs_dim == 425);
     CHECK_FALSE(reg.task("catch_underarm_raise"));  // variants are not registered
 
-    // the nine ground truths, no random score yet
+    // the nine ground truths and the twenty measured random scores
     const auto refs = reg.references();
-    CHECK(refs.size() == kGroundTruth.size());
+    CHECK(refs.size() == kGroundTruth.size() + 20);
     for (auto& [task, value] : kGroundTruth) {
       INFO(task);
       const auto r = reg.reference(task, "ground_truth");
@@ -119,9 +119,38 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
       CHECK(r->source ==
             "original code's published PPO learning curves, final value near 1e8 steps, mean "
             "of 10 seeds");
-      CHECK_FALSE(reg.reference(task, "random"));
     }
     CHECK_FALSE(reg.reference("pen", "ground_truth"));
+    // every paper task has a random score with its source (spot values from references.yaml)
+    for (auto& t : reg.tasks(false)) {
+      INFO(t.id);
+      const auto r = reg.reference(t.id, "random");
+      REQUIRE(r);
+      CHECK(r->source.find("bidex eval --random") != std::string::npos);
+    }
+    CHECK(reg.reference("hand_over", "random")->value == Approx(3.33431));
+    CHECK(reg.reference("switch", "random")->value == Approx(8454.99));
+
+    // the six suites of configs/suites, with their members and reward scales
+    const auto suites = reg.suites();
+    REQUIRE(suites.size() == 6);
+    for (auto& su : suites) {
+      INFO(su.id);
+      if (su.id == "MT20") {
+        CHECK(su.mode == "multitask");
+        REQUIRE(su.members.size() == 20);
+        int scaled = 0;
+        for (auto& m : su.members) scaled += m.reward_scale == 0.1;
+        CHECK(scaled == 11);
+      }
+      if (su.id == "ML4") {
+        CHECK(su.mode == "meta");
+        REQUIRE(su.members.size() == 4);
+        CHECK(su.members.back().split == "test");
+        CHECK(su.members.back().task == "two_catch_underarm");
+        CHECK(su.members[1].task == "hand_over_free");
+      }
+    }
   }
   // read back without bidex
   RawDb raw(path);
@@ -130,7 +159,9 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
-  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "9");
+  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "29");
+  CHECK(raw.value("SELECT count(*) FROM suites") == "6");
+  CHECK(raw.value("SELECT count(*) FROM suite_members WHERE suite = 'ML20'") == "20");
 }
 
 TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[registry]") {
@@ -143,7 +174,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   }
   Registry reg(path);
   CHECK(reg.tasks(false).size() == 20);
-  CHECK(reg.references().size() == 10);
+  CHECK(reg.references().size() == 29);
   CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
   CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
   CHECK(reg.reference("hand_over", "random")->value == 0.5);
@@ -170,11 +201,9 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   reg.set_reference({"pen", "random", 10.0, "test"});
   reg.set_reference({"pen", "ground_truth", -10.0, "test"});
   CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
-  // missing references
-  CHECK_FALSE(reg.normalised("catch_underarm", 10.0));  // ground truth only
-  reg.set_reference({"switch", "random", 1.0, "test"});
+  // missing references: the file gives every task a random score, ground truths only to nine
   CHECK_FALSE(reg.normalised("switch", 10.0));          // random only
-  CHECK_FALSE(reg.normalised("scissors", 10.0));        // none
+  CHECK_FALSE(reg.normalised("no_such_task", 10.0));
   CHECK_FALSE(reg.normalised("no_such_task", 10.0));
   // equal references cannot normalise
   reg.set_reference({"scissors", "random", 3.0, "test"});
@@ -260,26 +289,31 @@ TEST_CASE("runs, their scores and suites round-trip", "[registry]") {
   bad.algo = "ppo";  // neither
   CHECK_THROWS_AS(reg.begin_run(bad), Error);
 
-  // suites: put, then replace
-  registry::SuiteRecord suite{"MT4", "multitask", "configs/suites/MT4.yaml", "four catch tasks", {}};
+  // suites: put, then replace (a suite of its own beside the six of configs/suites)
+  const size_t shipped = reg.suites().size();
+  registry::SuiteRecord suite{"MY4", "multitask", "my/MY4.yaml", "four catch tasks", {}};
   suite.members = {{"catch_underarm", "catch_underarm", "train", 1.0},
                    {"hand_over", "hand_over", "train", 0.1},
                    {"catch_underarm", "catch_underarm", "test", 1.0}};
   reg.put_suite(suite);
-  auto got = reg.suites();
-  REQUIRE(got.size() == 1);
-  CHECK(got[0].members.size() == 3);
-  CHECK(got[0].members[1].reward_scale == 0.1);
+  auto mine = [&] {
+    for (auto& s : reg.suites())
+      if (s.id == "MY4") return s;
+    FAIL("suite MY4 missing");
+    return registry::SuiteRecord{};
+  };
+  CHECK(reg.suites().size() == shipped + 1);
+  CHECK(mine().members.size() == 3);
+  CHECK(mine().members[1].reward_scale == 0.1);
   suite.members.pop_back();
   suite.description = "changed";
   reg.put_suite(suite);
-  got = reg.suites();
-  REQUIRE(got.size() == 1);
-  CHECK(got[0].description == "changed");
-  CHECK(got[0].members.size() == 2);
+  CHECK(reg.suites().size() == shipped + 1);
+  CHECK(mine().description == "changed");
+  CHECK(mine().members.size() == 2);
   suite.members[0].split = "validation";
   CHECK_THROWS_AS(reg.put_suite(suite), Error);
-  CHECK(reg.suites()[0].members.size() == 2);  // nothing written
+  CHECK(mine().members.size() == 2);  // nothing written
 }
 
 TEST_CASE("adding a task: registered in age order; a duplicate or impossible one is refused",
@@ -379,7 +413,7 @@ TEST_CASE("a version-1 file with data is migrated to version 2, its data kept", 
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
     CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(30.8));
-    CHECK(reg.references().size() == 11);
+    CHECK(reg.references().size() == 11 + 19);  // and the random scores of the other 19
     // the new tables work, also for the old runs
     registry::RunRecord done = runs[1];
     done.status = "finished";
@@ -387,7 +421,7 @@ TEST_CASE("a version-1 file with data is migrated to version 2, its data kept", 
     CHECK(reg.scores(2).size() == 1);
     CHECK(reg.run(2)->status == "finished");
     reg.put_suite({"S", "multitask", "", "", {{"a", "hand_over", "train", 1.0}}});
-    CHECK(reg.suites().size() == 1);
+    CHECK(reg.suites().size() == 1 + 6);  // beside the six of configs/suites
     registry::RunRecord s;
     s.algo = "ppo";
     s.suite = "S";
@@ -558,6 +592,7 @@ TEST_CASE("two processes recording 200 runs each at once lose nothing", "[regist
 TEST_CASE("the age report: latest score per task, references, normalised, age order",
           "[registry]") {
   RegTempDir dir;
+  GroundTruthOnly references(dir);  // the random scores are set here
   Registry reg(dir.file("r.sqlite"));
   reg.set_reference({"hand_over", "random", 2.0, "test"});
   reg.set_reference({"door_open_inward", "random", 67, "test"});
