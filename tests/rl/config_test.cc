@@ -62,7 +62,7 @@ TEST_CASE("per-task columns of the paper's table apply to their task only", "[rl
   CHECK(resolve("catch_underarm").ppo.epochs == 5);
 }
 
-TEST_CASE("-o overrides change nested keys with YAML values", "[rl][config]") {
+TEST_CASE("overrides (-o) change nested keys with YAML values", "[rl][config]") {
   const auto c = resolve("catch_underarm", {"ppo.lr=1e-3", "env.slots=64", "ppo.hidden=[8, 4]",
                                             "ppo.value_norm=true", "train.steps=2e6", "seed=7"});
   CHECK(c.ppo.lr == 1e-3);
