@@ -190,6 +190,10 @@ std::vector<std::string> YamlView::keys() const {
 }
 
 void YamlView::allow_keys(std::initializer_list<std::string_view> allowed) const {
+  allow_keys(std::vector<std::string>(allowed.begin(), allowed.end()));
+}
+
+void YamlView::allow_keys(const std::vector<std::string>& allowed) const {
   expect_map();
   for (auto it = node_.begin(); it != node_.end(); ++it) {
     std::string k = it->first.as<std::string>();
@@ -197,7 +201,7 @@ void YamlView::allow_keys(std::initializer_list<std::string_view> allowed) const
     for (auto a : allowed) ok = ok || a == k;
     if (ok) continue;
     std::string list;
-    for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+    for (auto& a : allowed) list.append(list.empty() ? "" : ", ").append(a);
     std::string p = path_.empty() ? k : path_ + "." + k;
     throw ConfigError(where(it->first), p, "one of the keys {" + list + "}",
                       "unknown key '" + k + "'");

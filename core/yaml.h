@@ -53,6 +53,7 @@ class YamlView {
 
   // Requires a map whose keys are all in `allowed`; otherwise names the first unknown key.
   void allow_keys(std::initializer_list<std::string_view> allowed) const;
+  void allow_keys(const std::vector<std::string>& allowed) const;
   void expect_map() const;
   void expect_seq() const;
 

@@ -59,18 +59,9 @@ CatchParams load_catch_params(const std::string& file, const TaskSpec& spec) {
                    "termination"});
   CatchParams p;
   p.file = file;
-  {
-    auto v = root.child("episode_length");
-    p.episode_length = v.as<int>();
-    if (p.episode_length <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
-  }
+  p.episode_length = read_episode_length(root);
   p.object = parse_object(root.child("object"));
-  {
-    auto h = root.child("hands");
-    h.allow_keys({"right", "left"});
-    p.right = read_hand_pose(h.child("right"));
-    p.left = read_hand_pose(h.child("left"));
-  }
+  read_hand_poses(root, &p.right, &p.left);
   {
     auto v = root.child("objects");
     const int want = spec.obs.find("object.pose") ? 1 : 2;
@@ -93,10 +84,7 @@ CatchParams load_catch_params(const std::string& file, const TaskSpec& spec) {
     p.hand_dof_noise = read_number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
   }
   if (spec.free_base) {
-    auto b = root.child("base");
-    b.allow_keys({"force_scale", "torque_scale"});
-    p.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    p.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+    read_base_scales(root, &p.force_scale, &p.torque_scale);
   } else if (root.has("base")) {
     root.child("base").fail("no 'base' section: " + spec.id + " has fixed bases", "a base section");
   }

@@ -22,4 +22,25 @@ HandPose read_hand_pose(const YamlView& v) {
   return h;
 }
 
+int read_episode_length(const YamlView& root) {
+  auto v = root.child("episode_length");
+  const int n = v.as<int>();
+  if (n <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
+  return n;
+}
+
+void read_hand_poses(const YamlView& root, HandPose* right, HandPose* left) {
+  auto h = root.child("hands");
+  h.allow_keys({"right", "left"});
+  *right = read_hand_pose(h.child("right"));
+  *left = read_hand_pose(h.child("left"));
+}
+
+void read_base_scales(const YamlView& root, double* force_scale, double* torque_scale) {
+  auto b = root.child("base");
+  b.allow_keys({"force_scale", "torque_scale"});
+  *force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
+  *torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
+}
+
 }  // namespace bidex::tasks

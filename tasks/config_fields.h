@@ -20,4 +20,11 @@ struct HandPose {
 };
 HandPose read_hand_pose(const YamlView& v);
 
+// The head every task YAML shares, read from its root: `episode_length` (control steps, > 0),
+// `hands: {right: pose, left: pose}` and `base: {force_scale, torque_scale}` (free bases: action
+// +-1 gives force_scale x 1e5/60 N and torque_scale x 1e3/60 N m).
+int read_episode_length(const YamlView& root);
+void read_hand_poses(const YamlView& root, HandPose* right, HandPose* left);
+void read_base_scales(const YamlView& root, double* force_scale, double* torque_scale);
+
 }  // namespace bidex::tasks

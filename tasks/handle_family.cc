@@ -59,23 +59,9 @@ HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
   HandleParams p;
   p.file = file;
   p.kind = door ? HandleParams::Kind::kDoor : HandleParams::Kind::kPot;
-  {
-    auto v = root.child("episode_length");
-    p.episode_length = v.as<int>();
-    if (p.episode_length <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
-  }
-  {
-    auto h = root.child("hands");
-    h.allow_keys({"right", "left"});
-    p.right = read_hand_pose(h.child("right"));
-    p.left = read_hand_pose(h.child("left"));
-  }
-  {
-    auto b = root.child("base");
-    b.allow_keys({"force_scale", "torque_scale"});
-    p.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    p.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
-  }
+  p.episode_length = read_episode_length(root);
+  read_hand_poses(root, &p.right, &p.left);
+  read_base_scales(root, &p.force_scale, &p.torque_scale);
   if (door) {
     auto d = root.child("door");
     d.allow_keys({"pos", "swing", "start_angle", "handle_height", "damping", "frictionloss",

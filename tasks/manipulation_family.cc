@@ -25,23 +25,9 @@ std::string num(double v) {
 CommonParams load_common(const YamlView& root, const std::string& file) {
   CommonParams c;
   c.file = file;
-  {
-    auto v = root.child("episode_length");
-    c.episode_length = v.as<int>();
-    if (c.episode_length <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
-  }
-  {
-    auto h = root.child("hands");
-    h.allow_keys({"right", "left"});
-    c.right = read_hand_pose(h.child("right"));
-    c.left = read_hand_pose(h.child("left"));
-  }
-  {
-    auto b = root.child("base");
-    b.allow_keys({"force_scale", "torque_scale"});
-    c.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    c.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
-  }
+  c.episode_length = read_episode_length(root);
+  read_hand_poses(root, &c.right, &c.left);
+  read_base_scales(root, &c.force_scale, &c.torque_scale);
   return c;
 }
 

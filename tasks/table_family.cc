@@ -89,29 +89,17 @@ std::vector<Num> termination_keys(TableKind k) {
   return {};
 }
 
-// Requires a map whose keys are all in `allowed` (a run-time list; YamlView::allow_keys takes a
-// fixed one), naming the first unknown key.
-void allow(const YamlView& v, const std::vector<std::string>& allowed) {
-  v.expect_map();
-  for (const auto& k : v.keys()) {
-    if (std::find(allowed.begin(), allowed.end(), k) != allowed.end()) continue;
-    std::string list;
-    for (const auto& a : allowed) list.append(list.empty() ? "" : ", ").append(a);
-    v.child(k).fail("one of the keys {" + list + "}", "unknown key '" + k + "'");
-  }
-}
-
 void read_numbers(const YamlView& v, const std::vector<Num>& keys, TableParams& p) {
   std::vector<std::string> names;
   for (auto& n : keys) names.push_back(n.key);
-  allow(v, names);
+  v.allow_keys(names);
   for (auto& n : keys) p.*n.field = read_number(v, n.key, n.lo, n.hi, n.what);
 }
 
 TableParams::Pose pose(const YamlView& v, std::vector<std::string> more = {}) {
   more.push_back("pos");
   more.push_back("rpy");
-  allow(v, more);
+  v.allow_keys(more);
   return {read_vec3(v.child("pos")), read_vec3(v.child("rpy"))};
 }
 
@@ -127,20 +115,11 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
   if (has_second(kind)) top.push_back(second);
   if (kind == TableKind::kPourWater) top.push_back("water");
   if (kind != TableKind::kSwitch) top.push_back("termination");
-  allow(root, top);
+  root.allow_keys(top);
   TableParams p;
   p.file = file;
-  {
-    auto v = root.child("episode_length");
-    p.episode_length = v.as<int>();
-    if (p.episode_length <= 0) v.fail("an episode length > 0 (control steps)", v.repr());
-  }
-  {
-    auto h = root.child("hands");
-    allow(h, {"right", "left"});
-    p.right = pose(h.child("right"));
-    p.left = pose(h.child("left"));
-  }
+  p.episode_length = read_episode_length(root);
+  read_hand_poses(root, &p.right, &p.left);
   {
     auto o = root.child("object");
     std::vector<std::string> extra = {"friction", "density"};
@@ -154,7 +133,7 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
   if (has_second(kind)) p.second = pose(root.child(second));
   if (kind == TableKind::kPourWater) {
     auto w = root.child("water");
-    allow(w, {"count", "radius"});
+    w.allow_keys({"count", "radius"});
     auto c = w.child("count");
     p.water_count = c.as<int>();
     if (p.water_count < 0 || p.water_count > 30) c.fail("a count in [0, 30]", c.repr());
@@ -162,7 +141,7 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
   }
   {
     auto t = root.child("table");
-    allow(t, {"pos", "size"});
+    t.allow_keys({"pos", "size"});
     p.table_pos = read_vec3(t.child("pos"));
     auto sv = t.child("size");
     p.table_size = read_vec3(sv);
@@ -172,20 +151,15 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
   {
     auto r = root.child("reset");
     if (kind == TableKind::kScissors) {
-      allow(r, {"hand_dof_noise", "joint_angle"});
+      r.allow_keys({"hand_dof_noise", "joint_angle"});
       p.reset_angle = read_number(r, "joint_angle", g::kScissorsLower, g::kScissorsUpper,
                              "an angle inside the joint range [-0.5969, 0.4] rad");
     } else {
-      allow(r, {"hand_dof_noise"});
+      r.allow_keys({"hand_dof_noise"});
     }
     p.hand_dof_noise = read_number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
   }
-  {
-    auto b = root.child("base");
-    allow(b, {"force_scale", "torque_scale"});
-    p.force_scale = read_number(b, "force_scale", 0, 10, "a scale in [0, 10] (x 1e5/60 N)");
-    p.torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
-  }
+  read_base_scales(root, &p.force_scale, &p.torque_scale);
   read_numbers(root.child("reward"), reward_keys(kind), p);
   if (kind != TableKind::kSwitch) {
     auto t = root.child("termination");

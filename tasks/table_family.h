@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "tasks/config_fields.h"
 #include "tasks/hands.h"
 #include "tasks/task.h"
 
@@ -18,10 +19,7 @@ enum class TableKind { kSwingCup, kScissors, kPen, kSwitch, kPourWater };
 struct TableParams {
   std::string file;                 // the YAML it came from
   int episode_length = 0;           // control steps
-  struct Pose {
-    sim::Vec3 pos{};
-    sim::Vec3 rpy{};  // roll, pitch, yaw (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
-  };
+  using Pose = HandPose;  // pos, and rpy (rad): R = Rz(yaw) Ry(pitch) Rx(roll)
   Pose right, left;                 // hand mounts
   Pose object;                      // the object's root at the reset (switch: switch 1)
   Pose second;                      // switch 2 (switch), the bucket (pour_water); unused else
