@@ -5,7 +5,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <ctime>
 #include <memory>
 #include <string>
 #include <vector>
@@ -16,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "core/clock.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/version.h"
@@ -67,19 +67,6 @@ void print_curve(const std::string& dir) {
 }
 }  // namespace
 
-std::string utc_now() {
-  std::time_t t = std::time(nullptr);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-  return buf;
-}
-
-std::string host_name() {
-  char buf[256] = {};
-  if (::gethostname(buf, sizeof buf - 1) != 0) return "";
-  return buf;
-}
-
 std::string absolute(const std::string& path) {
   char* r = ::realpath(path.c_str(), nullptr);
   if (!r) return path;
@@ -107,9 +94,8 @@ class RunRecorder {
       } catch (const std::exception&) {
         id_ = 0;
       }
-      for (auto& r : reg_->runs())
-        if (r.id == id_) rec_ = r;
-      if (rec_.id == 0) id_ = 0;
+      if (auto r = reg_->run(id_)) rec_ = *r;
+      else id_ = 0;
     }
     if (id_ == 0) {
       rec_ = registry::RunRecord{};
@@ -120,11 +106,9 @@ class RunRecorder {
       rec_.config_hash = rl::config_hash(read_file(run_dir + "/config.yaml"));
       rec_.code_version = code_version();
       rec_.run_dir = absolute(run_dir);
-      rec_.host = host_name();
-      rec_.started = utc_now();
       rec_.status = "running";
-      id_ = reg_->begin_run(rec_);
-      rec_.id = id_;
+      id_ = reg_->begin_run(rec_);  // the registry fills in the host and the start time
+      rec_ = *reg_->run(id_);
       nlohmann::json j = {{"registry", abs_reg}, {"run_id", id_}};
       write_file_atomic(link, j.dump(2) + "\n");
     }
@@ -133,7 +117,7 @@ class RunRecorder {
   void finish(const rl::TrainResult* r, const std::string& status) {
     if (!reg_ || id_ == 0) return;
     rec_.status = status;
-    rec_.finished = utc_now();
+    rec_.finished.clear();  // the registry writes the end time
     std::vector<registry::TaskScore> scores;
     if (r) {
       rec_.steps = r->steps;

@@ -11,6 +11,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "core/clock.h"
 #include "core/error.h"
 #include "core/yaml.h"
 #include "registry/sql.h"
@@ -123,15 +124,6 @@ std::string in_quotes(const std::string& s) {
   std::string q = "'";
   q.append(s).append("'");
   return q;
-}
-
-std::string now_utc() {
-  const std::time_t t = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&t, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
 }
 
 std::string host_name() {
@@ -598,7 +590,7 @@ int64_t Registry::begin_run(const RunRecord& r) {
   st.bind(1, r.algo).bind(2, r.task).bind(3, r.suite).bind(4, static_cast<int64_t>(r.seed));
   st.bind(5, r.steps).bind(6, r.config_hash).bind(7, r.code_version).bind(8, r.run_dir);
   st.bind(9, r.host.empty() ? host_name() : r.host);
-  st.bind(10, r.started.empty() ? now_utc() : r.started);
+  st.bind(10, r.started.empty() ? utc_now() : r.started);
   st.run();
   const int64_t id = sqlite3_last_insert_rowid(db_);
   txn.commit();
@@ -621,7 +613,7 @@ void Registry::finish_run(int64_t id, const RunRecord& r, const std::vector<Task
           "UPDATE runs SET steps = ?2, status = ?3, finished = ?4, final_return = ?5, "
           "final_success = ?6 WHERE id = ?1");
   up.bind(1, id).bind(2, r.steps).bind(3, status);
-  up.bind(4, r.finished.empty() && status != "running" ? now_utc() : r.finished);
+  up.bind(4, r.finished.empty() && status != "running" ? utc_now() : r.finished);
   up.bind(5, r.final_return).bind(6, r.final_success);
   up.run();
   if (sqlite3_changes(db_) != 1)

@@ -17,6 +17,7 @@
 #include <nlohmann/json.hpp>
 #include <torch/torch.h>
 
+#include "core/clock.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "core/progress.h"
@@ -121,13 +122,6 @@ std::string checkpoint_path(const std::string& dir, int64_t update) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "/checkpoints/update_%08lld.ckpt", static_cast<long long>(update));
   return dir + buf;
-}
-
-std::string utc_now() {
-  std::time_t t = std::time(nullptr);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", std::gmtime(&t));
-  return buf;
 }
 
 // The versioned id of what a run trains on: the task's (catch_underarm-v1), or for a suite its
