@@ -197,10 +197,7 @@ void CatchTask::reset(TaskSlot& t) const {
   auto& rng = *t.rng;
   mjData* d = t.data;
   // hands: one joint sample for both (as the original), inside the joint ranges
-  if (p_.hand_dof_noise > 0) {
-    auto q = sample_joint_noise(hands_[0], p_.hand_dof_noise, rng);
-    for (auto& h : hands_) set_hand_joints(h, d, t.state.ctrl, q);
-  }
+  randomise_hand_joints(hands_, p_.hand_dof_noise, rng, d, t.state.ctrl);
   // objects: one position-noise sample and one orientation for all of them
   double noise[3] = {0, 0, 0};
   if (p_.object_position_noise > 0)

@@ -173,6 +173,13 @@ void observe_hand(const HandRig& r, const sim::SlotView& v, const float* actions
   for (size_t k = 0; k < na; ++k) *o++ = actions[k];
 }
 
+void randomise_hand_joints(const HandRig (&hands)[2], double noise, std::mt19937_64& rng,
+                           mjData* data, double* ctrl_row) {
+  if (noise <= 0) return;
+  const auto q = sample_joint_noise(hands[0], noise, rng);
+  for (auto& h : hands) set_hand_joints(h, data, ctrl_row, q);
+}
+
 std::vector<double> sample_joint_noise(const HandRig& r, double noise, std::mt19937_64& rng) {
   std::vector<double> q(r.qpos_adr.size(), 0.0);
   for (size_t j = 0; j < q.size(); ++j) {

@@ -78,5 +78,9 @@ std::vector<double> sample_joint_noise(const HandRig& rig, double noise, std::mt
 // their joint (ratio x), zero joint velocity, motor targets at the new angles (data->ctrl and the
 // batch's ctrl row).
 void set_hand_joints(const HandRig& rig, mjData* data, double* ctrl_row, std::vector<double> q);
+// The reset noise of both hands, as the original draws it: one sample_joint_noise for the right
+// hand's rig, written into both hands (nothing drawn when noise is 0).
+void randomise_hand_joints(const HandRig (&hands)[2], double noise, std::mt19937_64& rng,
+                           mjData* data, double* ctrl_row);
 
 }  // namespace bidex::tasks

@@ -131,10 +131,7 @@ class ReOrientation : public manip::ManipTask {
   void reset(TaskSlot& t) const override {
     auto& rng = *t.rng;
     mjData* d = t.data;
-    if (p_.hand_dof_noise > 0) {
-      auto q = sample_joint_noise(hands_[0], p_.hand_dof_noise, rng);
-      for (auto& h : hands_) set_hand_joints(h, d, t.state.ctrl, q);
-    }
+    randomise_hand_joints(hands_, p_.hand_dof_noise, rng, d, t.state.ctrl);
     double noise[3] = {0, 0, 0};
     if (p_.object_position_noise > 0)
       for (double& x : noise) x = p_.object_position_noise * math::uniform(rng, -1, 1);
