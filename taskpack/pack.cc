@@ -55,7 +55,7 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spe
   // built, so a bad entry costs nothing)
   std::vector<const tasks::TaskSpec*> specs;
   for (int g = 0; g < n; ++g) {
-    const PackEntry& e = spec_.entries[g];
+    PackEntry& e = spec_.entries[g];
     try {
       specs.push_back(&tasks::find_task(e.task).spec());
     } catch (const ConfigError& err) {
@@ -66,15 +66,15 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spe
     if (!std::isfinite(e.reward_scale) || e.reward_scale < 0)
       throw ConfigError(name, entry_key(g, "reward_scale"), "a finite scale >= 0",
                         std::to_string(e.reward_scale));
-    const std::string label = e.label.empty() ? e.task : e.label;
+    if (e.label.empty()) e.label = e.task;  // the spec kept by the pack names every entry
+    const std::string& label = e.label;
     for (int h = 0; h < g; ++h)
-      if (labels_[h] == label)
+      if (spec_.entries[h].label == label)
         throw ConfigError(name, entry_key(g, "label"),
                           std::string("a label unlike the other entries' (")
                               .append(entry_key(h, ""))
                               .append(" has it too)"),
                           quoted(label));
-    labels_.push_back(label);
   }
 
   // widths
@@ -135,7 +135,6 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spe
     begin_.push_back(nslot_);
     nslot_ += e.slots;
   }
-  threads_ = envs_[0]->threads();
   slot_group_.resize(static_cast<size_t>(nslot_));
   for (int g = 0; g < n; ++g)
     std::fill_n(slot_group_.begin() + begin_[g], spec_.entries[g].slots, g);
@@ -153,7 +152,7 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spe
 
 TaskPack::~TaskPack() = default;
 
-int TaskPack::threads() const { return threads_; }
+int TaskPack::threads() const { return envs_[0]->threads(); }
 
 int TaskPack::group_of(int slot) const { return slot_group_.at(static_cast<size_t>(slot)); }
 
@@ -209,7 +208,7 @@ void TaskPack::step(const float* actions) {
   for (size_t g = 0; g < envs_.size(); ++g)
     envs_[g]->begin_step(actions + static_cast<size_t>(begin_[g]) * act_dim_, act_dim_);
   // one loop over every slot of every entry; dynamic: the tasks differ in cost per slot
-#pragma omp parallel for schedule(dynamic, 16) num_threads(threads_)
+#pragma omp parallel for schedule(dynamic, 16) num_threads(threads())
   for (int s = 0; s < nslot_; ++s) {
     const int g = slot_group_[s];
     const int local = s - begin_[g];

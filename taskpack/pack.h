@@ -69,7 +69,7 @@ class TaskPack {
   int threads() const;
   int ngroups() const { return static_cast<int>(envs_.size()); }
   const PackEntry& entry(int g) const { return spec_.entries[g]; }
-  const std::string& label(int g) const { return labels_[g]; }
+  const std::string& label(int g) const { return spec_.entries[g].label; }  // never empty
   tasks::TaskEnv& group(int g) { return *envs_[g]; }
   const tasks::TaskEnv& group(int g) const { return *envs_[g]; }
   int group_begin(int g) const { return begin_[g]; }   // first pack slot of entry g
@@ -100,12 +100,10 @@ class TaskPack {
 
   PackSpec spec_;
   std::vector<std::unique_ptr<tasks::TaskEnv>> envs_;
-  std::vector<std::string> labels_;
   std::vector<int> begin_;
   std::vector<std::vector<uint8_t>> keep_;
   std::vector<int> slot_group_;  // entry of each pack slot
   int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, obs_pad_ = 0, one_hot_ = 0;
-  int threads_ = 1;
   bool profile_on_ = false;
   tasks::StageProfile wall_;     // steps and wall time of the pack's steps
 };
