@@ -203,8 +203,10 @@ void add_registry_command(CLI::App& app) {
     cmd->add_option("--source", o->source, "Where the value comes from");
     cmd->footer(
         "Example (the value is illustrative, not a measurement):\n"
-        "  bidex registry reference --task hand_over --kind random --value 0.4 "
-        "--source \"bidex play --task hand_over --policy random, mean of 1000 episodes\"");
+        "  bidex registry reference --task pen --kind ground_truth --value 120 "
+        "--source \"my PPO run, runs/pen-ppo-s0, 100M steps\"\n"
+        "A random policy's score is measured and stored by\n"
+        "  bidex eval --random --task pen --episodes 256 --set-reference");
     cmd->callback([o, value] {
       std::string missing;
       if (o->task.empty()) missing.append(" --task");
