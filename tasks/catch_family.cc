@@ -159,11 +159,7 @@ sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
   }
   sim::SceneBuilder sb(ph);
   const auto base = spec().free_base ? sim::Base::kFree : sim::Base::kFixed;
-  auto pose = [](const CatchParams::HandPose& h) {
-    return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
-  };
-  sb.add_hand(right_hand, {sim::Side::kRight, pose(p_.right), base});
-  sb.add_hand(right_hand, {sim::Side::kLeft, pose(p_.left), base});
+  add_two_hands(sb, right_hand, p_.right, p_.left, base);
   for (int i = 0; i < nobj_; ++i) {
     sim::ObjectSpec o = p_.object.spec;
     o.name = numbered("object", i, nobj_);
@@ -177,12 +173,7 @@ sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
 }
 
 void CatchTask::bind(const sim::SimModel& model) {
-  hands_[0] = bind_hand(model, sim::Side::kRight);
-  hands_[1] = bind_hand(model, sim::Side::kLeft);
-  for (auto& h : hands_) {
-    h.force_max = p_.force_scale * 1e5 / 60.0;
-    h.torque_max = p_.torque_scale * 1e3 / 60.0;
-  }
+  bind_two_hands(model, p_.force_scale, p_.torque_scale, hands_);
   obj_.clear();
   for (int i = 0; i < nobj_; ++i) {
     const auto* o = model.object(numbered("object", i, nobj_));

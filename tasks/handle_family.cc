@@ -240,11 +240,7 @@ sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
   ph.nconmax += 32;
   ph.nstack += 24000;
   sim::SceneBuilder sb(ph);
-  auto pose = [](const HandleParams::HandPose& h) {
-    return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
-  };
-  sb.add_hand(right_hand, {sim::Side::kRight, pose(p_.right), sim::Base::kFree});
-  sb.add_hand(right_hand, {sim::Side::kLeft, pose(p_.left), sim::Base::kFree});
+  add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::ObjectSpec o;
   o.shape = sim::ObjectSpec::Shape::kMjcf;
   if (p_.kind == HandleParams::Kind::kPot) {
@@ -277,12 +273,7 @@ sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
 }
 
 void HandleTask::bind(const sim::SimModel& model) {
-  hands_[0] = bind_hand(model, sim::Side::kRight);
-  hands_[1] = bind_hand(model, sim::Side::kLeft);
-  for (auto& h : hands_) {
-    h.force_max = p_.force_scale * 1e5 / 60.0;
-    h.torque_max = p_.torque_scale * 1e3 / 60.0;
-  }
+  bind_two_hands(model, p_.force_scale, p_.torque_scale, hands_);
   const mjModel* m = model.mj();
   if (p_.kind == HandleParams::Kind::kPot) {
     const auto* o = model.object("pot");

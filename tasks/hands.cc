@@ -173,6 +173,23 @@ void observe_hand(const HandRig& r, const sim::SlotView& v, const float* actions
   for (size_t k = 0; k < na; ++k) *o++ = actions[k];
 }
 
+void bind_two_hands(const sim::SimModel& model, double force_scale, double torque_scale,
+                    HandRig (&hands)[2]) {
+  hands[0] = bind_hand(model, sim::Side::kRight);
+  hands[1] = bind_hand(model, sim::Side::kLeft);
+  for (auto& h : hands) {
+    h.force_max = force_scale * 1e5 / 60.0;
+    h.torque_max = torque_scale * 1e3 / 60.0;
+  }
+}
+
+void add_two_hands(sim::SceneBuilder& sb, const sim::HandSpec& right_hand, const HandPose& right,
+                   const HandPose& left, sim::Base base) {
+  auto pose = [](const HandPose& h) { return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]); };
+  sb.add_hand(right_hand, {sim::Side::kRight, pose(right), base});
+  sb.add_hand(right_hand, {sim::Side::kLeft, pose(left), base});
+}
+
 void randomise_hand_joints(const HandRig (&hands)[2], double noise, std::mt19937_64& rng,
                            mjData* data, double* ctrl_row) {
   if (noise <= 0) return;

@@ -9,6 +9,8 @@
 
 #include "sim/batch.h"
 #include "sim/model.h"
+#include "sim/scene.h"
+#include "tasks/config_fields.h"
 
 namespace bidex::tasks {
 
@@ -43,6 +45,13 @@ struct HandRig {
 
 // Binds one hand of a compiled scene; throws ModelError if the scene has no such hand.
 HandRig bind_hand(const sim::SimModel& model, sim::Side side);
+// Both hands (right, left) with their base action scales: action +-1 gives force_scale x 1e5/60 N
+// and torque_scale x 1e3/60 N m.
+void bind_two_hands(const sim::SimModel& model, double force_scale, double torque_scale,
+                    HandRig (&hands)[2]);
+// Both hands into a task's scene at their mounts.
+void add_two_hands(sim::SceneBuilder& sb, const sim::HandSpec& right_hand, const HandPose& right,
+                   const HandPose& left, sim::Base base);
 
 // Reward points of the original (tasks/README.md): a fingertip point is the distal body's origin
 // + 0.02 m along its local z (k: 0 ff, 1 mf, 2 rf, 3 lf, 4 th); the palm point is the palm body's

@@ -147,21 +147,12 @@ sim::SceneBuilder ManipTask::scene_with_hands(const sim::HandSpec& right_hand,
   ph.nconmax += 32;
   ph.nstack += 24000;
   sim::SceneBuilder sb(ph);
-  auto pose = [](const HandPose& h) {
-    return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
-  };
-  sb.add_hand(right_hand, {sim::Side::kRight, pose(c_.right), sim::Base::kFree});
-  sb.add_hand(right_hand, {sim::Side::kLeft, pose(c_.left), sim::Base::kFree});
+  add_two_hands(sb, right_hand, c_.right, c_.left, sim::Base::kFree);
   return sb;
 }
 
 void ManipTask::bind_hands(const sim::SimModel& model) {
-  hands_[0] = bind_hand(model, sim::Side::kRight);
-  hands_[1] = bind_hand(model, sim::Side::kLeft);
-  for (auto& h : hands_) {
-    h.force_max = c_.force_scale * 1e5 / 60.0;
-    h.torque_max = c_.torque_scale * 1e3 / 60.0;
-  }
+  bind_two_hands(model, c_.force_scale, c_.torque_scale, hands_);
 }
 
 void ManipTask::apply_actions(const float* a, TaskSlot& t) const {

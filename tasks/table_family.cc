@@ -365,11 +365,7 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
     ph.nstack += 8000 * n + 400 * n * n;
   }
   sim::SceneBuilder sb(ph);
-  auto hand_pose = [](const TableParams::Pose& h) {
-    return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]);
-  };
-  sb.add_hand(right_hand, {sim::Side::kRight, hand_pose(p_.right), sim::Base::kFree});
-  sb.add_hand(right_hand, {sim::Side::kLeft, hand_pose(p_.left), sim::Base::kFree});
+  add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::TableSpec table;
   table.half_size = {p_.table_size[0] / 2, p_.table_size[1] / 2, p_.table_size[2] / 2};
   table.pose.pos = p_.table_pos;
@@ -535,12 +531,7 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
 
 void TableTask::bind(const sim::SimModel& model) {
   const mjModel* m = model.mj();
-  hands_[0] = bind_hand(model, sim::Side::kRight);
-  hands_[1] = bind_hand(model, sim::Side::kLeft);
-  for (auto& h : hands_) {
-    h.force_max = p_.force_scale * 1e5 / 60.0;
-    h.torque_max = p_.torque_scale * 1e3 / 60.0;
-  }
+  bind_two_hands(model, p_.force_scale, p_.torque_scale, hands_);
   auto body = [&](const char* n) {
     const int b = mj_name2id(m, mjOBJ_BODY, n);
     if (b < 0) throw ModelError(spec().id + ": the scene has no body '" + n + "'");
