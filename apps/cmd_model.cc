@@ -28,7 +28,8 @@ void add_model_command(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--physics", o->physics, "Physics YAML (default: configs/sim/physics.yaml)");
   cmd->footer(
-      "Example:\n  bidex model --hand both --out hands.xml && mujoco-compile hands.xml hands.mjb");
+      "Example:\n  bidex model --hand both --out hands.xml\n  .venv/bin/python -c \"import mujoco; "
+      "print(mujoco.MjModel.from_xml_path('hands.xml').nq)\"");
   cmd->callback([o] {
     auto spec = sim::load_hand_spec(o->spec.empty() ? sim::default_hand_path() : o->spec);
     auto physics = sim::load_physics(o->physics.empty() ? sim::default_physics_path() : o->physics);

@@ -71,7 +71,7 @@ std::vector<CouplingIdx> coupling_index(const sim::SimModel& model, const sim::H
 }
 
 // One slot of a batch (initial state from sim::reset_slot), stepped at the physics rate with the
-// same applied forces as sim::step: gravity compensation plus each free base's wrench.
+// same applied forces as sim::step: each free base's wrench (the hands' weight is gravcomp's).
 struct World {
   const sim::SimModel& model;
   const mjModel* m;
@@ -84,13 +84,7 @@ struct World {
         wrench(mdl.nwrench(), 0.0) {}
 
   void step() {
-    const auto& comp = model.gravity_compensation();
-    std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
-    const auto& hands = model.hands();
-    for (size_t h = 0; h < hands.size(); ++h) {
-      if (!hands[h].free_base) continue;
-      for (int k = 0; k < 6; ++k) d->xfrc_applied[hands[h].root_body * 6 + k] += wrench[h * 6 + k];
-    }
+    sim::update_base_wrench(model, d, wrench.data());
     mj_step(m, d);
   }
   double dt() const { return m->opt.timestep; }
@@ -177,9 +171,7 @@ json physics_json(const sim::PhysicsOptions& p) {
           {"coupling_solref", p.coupling_solref},
           {"coupling_solimp", p.coupling_solimp},
           {"gravity_free_hands", p.gravity_free_hands},
-          {"njmax", p.njmax},
-          {"nconmax", p.nconmax},
-          {"nstack", p.nstack},
+          {"memory", p.memory},
           {"max_speed", p.max_speed}};
 }
 
@@ -501,6 +493,43 @@ json measure_coupling(const sim::SimModel& model, const sim::HandSpec& spec) {
           {"finite", w.finite()}};
 }
 
+PhysxDampedResponse physx_damped_response(const sim::SimModel& model, const sim::HandIndex& hand,
+                                          double damping, double substep) {
+  const mjModel* m = model.mj();
+  mjData* d = mj_makeData(m);
+  mj_forward(m, d);
+  PhysxDampedResponse r;
+  double com[3] = {0, 0, 0};
+  for (int b : hand.bodies) {
+    r.mass += m->body_mass[b];
+    for (int k = 0; k < 3; ++k) com[k] += m->body_mass[b] * d->xipos[3 * b + k];
+  }
+  for (double& c : com) c /= r.mass;
+  // inertia about the centre of mass, world axes: each body's own (R diag R^T) plus m (|r|^2 1 - r r^T)
+  double inertia[9] = {};
+  for (int b : hand.bodies) {
+    const double* rot = d->ximat + 9 * b;
+    const double* diag = m->body_inertia + 3 * b;
+    const double rel[3] = {d->xipos[3 * b] - com[0], d->xipos[3 * b + 1] - com[1],
+                           d->xipos[3 * b + 2] - com[2]};
+    const double r2 = rel[0] * rel[0] + rel[1] * rel[1] + rel[2] * rel[2];
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double own = 0;
+        for (int k = 0; k < 3; ++k) own += rot[3 * i + k] * diag[k] * rot[3 * j + k];
+        inertia[3 * i + j] += own + m->body_mass[b] * ((i == j ? r2 : 0.0) - rel[i] * rel[j]);
+      }
+  }
+  mj_deleteData(d);
+  for (int k = 0; k < 3; ++k) r.inertia[k] = inertia[4 * k];
+  // v* = (v* + a h) k  =>  v* = a h k / (1 - k): a damping of m (1 - k) / (h k) in N s/m
+  const double keep = std::max(0.0, 1.0 - damping * substep);
+  const double per_unit = (1.0 - keep) / (substep * keep);
+  r.linear_damping = r.mass * per_unit;
+  for (int k = 0; k < 3; ++k) r.angular_damping[k] = r.inertia[k] * per_unit;
+  return r;
+}
+
 json measure_hang(const sim::SimModel& model, double force, double torque) {
   const int left = hand_number(model, sim::Side::kLeft);
   const int right = hand_number(model, sim::Side::kRight);
@@ -539,6 +568,9 @@ json measure_hang(const sim::SimModel& model, double force, double torque) {
   Run still = run({0, 0, 0, 0, 0, 0});
   Run push = run({force, 0, 0, 0, 0, 0});
   Run twist = run({0, 0, 0, 0, 0, torque});
+  // the hands lie along the world y axis: a torque about y rolls the hand about its forearm
+  Run roll = run({0, 0, 0, 0, torque, 0});
+  const PhysxDampedResponse orig = physx_damped_response(model, hands[left]);
   return {{"still_left_drift_2s_m", still.drift_pos},
           {"still_left_rotation_2s_rad", still.drift_angle},
           {"still_right_drift_2s_m", still.drift_pos_right},
@@ -550,7 +582,19 @@ json measure_hang(const sim::SimModel& model, double force, double torque) {
           {"twist_torque_nm", torque},
           {"twist_spin_rad_s", twist.spin},
           {"twist_expected_spin_rad_s", torque / c_rot},
-          {"warnings", still.warnings + push.warnings + twist.warnings}};
+          {"roll_spin_rad_s", roll.spin},
+          {"original",
+           {{"what", "the original's steady response under the same force and torque: PhysX "
+                     "damping 100 on every hand link, v <- (v + a dt) max(0, 1 - c dt) per "
+                     "1/120 s substep, on this hand's mass and inertia about its centre of mass"},
+            {"mass_kg", orig.mass},
+            {"inertia_com_kgm2", orig.inertia},
+            {"push_speed_m_s", force / orig.linear_damping},
+            {"twist_spin_rad_s", torque / orig.angular_damping[2]},
+            {"roll_spin_rad_s", torque / orig.angular_damping[1]},
+            {"equivalent_damping_translation", orig.linear_damping},
+            {"equivalent_damping_rotation", orig.angular_damping}}},
+          {"warnings", still.warnings + push.warnings + twist.warnings + roll.warnings}};
 }
 
 json measure_step(const sim::SimModel& model, double step_rad) {
@@ -705,10 +749,14 @@ json measure_soak(const sim::SimModel& model, const sim::HandSpec& spec, const S
     for (int s = 0; s < batch.nslot(); ++s) {
       const mjData* d = batch.data(s);
       if (batch.fault[s]) continue;
-      // solver iterations of the last physics step of the control step
-      max_iter = std::max(max_iter, d->solver_iter);
-      iter_sum += d->solver_iter;
-      iter_capped += d->solver_iter >= m->opt.iterations;
+      // solver iterations of the last physics step of the control step (the most of any
+      // constraint island; MuJoCo solves islands apart)
+      int iter = d->solver_niter[0];
+      for (int i = 1; i < std::min(d->nisland, mjNISLAND); ++i)
+        iter = std::max(iter, d->solver_niter[i]);
+      max_iter = std::max(max_iter, iter);
+      iter_sum += iter;
+      iter_capped += iter >= m->opt.iterations;
       ++iter_n;
       double pen[kKinds] = {};
       bool seen[kKinds] = {};
@@ -805,9 +853,10 @@ json run_physics_study(const PhysicsStudyConfig& cfg) {
                      {"groups", cfg.groups}};
   out["candidates"] = json::array();
   json summary = json::array();
-  int max_stack = 0, max_con = 0, max_efc = 0;  // over every candidate
-  int ref_stack = 0, ref_con = 0, ref_efc = 0;  // over the reference's soaks
-  json stack_by_solver = json::object();
+  int64_t max_arena = 0, ref_arena = 0;         // over every candidate, the reference's soaks
+  int max_con = 0, max_efc = 0;                 // over every candidate
+  int ref_con = 0, ref_efc = 0;                 // over the reference's soaks
+  json arena_by_solver = json::object();
   std::optional<sim::SimModel> reference;  // timed beside every other candidate
   for (const Candidate& c : cands) {
     auto t0 = Clock::now();
@@ -856,15 +905,15 @@ json run_physics_study(const PhysicsStudyConfig& cfg) {
     for (const char* s : {"soak", "hard"}) {
       if (!e.contains(s)) continue;
       if (c.group == "reference") {
-        ref_stack = std::max(ref_stack, e[s]["maxuse_stack"].get<int>());
+        ref_arena = std::max(ref_arena, e[s]["maxuse_arena"].get<int64_t>());
         ref_con = std::max(ref_con, e[s]["maxuse_con"].get<int>());
         ref_efc = std::max(ref_efc, e[s]["maxuse_efc"].get<int>());
       }
-      max_stack = std::max(max_stack, e[s]["maxuse_stack"].get<int>());
+      max_arena = std::max(max_arena, e[s]["maxuse_arena"].get<int64_t>());
       max_con = std::max(max_con, e[s]["maxuse_con"].get<int>());
       max_efc = std::max(max_efc, e[s]["maxuse_efc"].get<int>());
-      int prev = stack_by_solver.value(c.physics.solver, 0);
-      stack_by_solver[c.physics.solver] = std::max(prev, e[s]["maxuse_stack"].get<int>());
+      int64_t prev = arena_by_solver.value(c.physics.solver, int64_t{0});
+      arena_by_solver[c.physics.solver] = std::max(prev, e[s]["maxuse_arena"].get<int64_t>());
     }
     // one line per candidate with the figures the README compares
     json row = {{"group", c.group}, {"name", c.name}};
@@ -906,42 +955,33 @@ json run_physics_study(const PhysicsStudyConfig& cfg) {
 
   // memory: bytes of one mjData for several buffer sizes, against the largest use seen
   json mem;
-  mem["reference_max"] = {{"maxuse_stack", ref_stack},
+  mem["reference_max"] = {{"maxuse_arena", ref_arena},
                           {"maxuse_con", ref_con},
                           {"maxuse_efc", ref_efc}};
-  mem["observed_max"] = {{"maxuse_stack", max_stack},
+  mem["observed_max"] = {{"maxuse_arena", max_arena},
                          {"maxuse_con", max_con},
                          {"maxuse_efc", max_efc},
-                         {"maxuse_stack_by_solver", stack_by_solver}};
+                         {"maxuse_arena_by_solver", arena_by_solver}};
   mem["slots"] = cfg.memory_slots;
   mem["sizes"] = json::array();
-  const std::array<int, 3> sizes[] = {
-      {cfg.physics.njmax, cfg.physics.nconmax, cfg.physics.nstack},
-      {300, 80, 60000}, {200, 50, 40000}, {150, 40, 28000}, {128, 32, 28000},
-      {120, 32, 28000}, {100, 32, 28000}, {120, 32, 24000}, {120, 32, 20000}};
-  std::vector<std::array<int, 3>> seen;
-  for (auto& sz : sizes) {
+  const int sizes[] = {cfg.physics.memory, 4 << 20, 2 << 20, 1 << 20, 768 << 10, 512 << 10,
+                       384 << 10, 256 << 10};
+  std::vector<int> seen;
+  for (int sz : sizes) {
     if (std::find(seen.begin(), seen.end(), sz) != seen.end()) continue;
     seen.push_back(sz);
     sim::PhysicsOptions p = cfg.physics;
-    p.njmax = sz[0];
-    p.nconmax = sz[1];
-    p.nstack = sz[2];
-    json row = {{"njmax", sz[0]},
-                {"nconmax", sz[1]},
-                {"nstack", sz[2]},
+    p.memory = sz;
+    json row = {{"memory", sz},
                 {"reference", seen.size() == 1},
-                {"stack_bytes", static_cast<double>(sz[2]) * sizeof(mjtNum)},
                 // over the largest use of the reference's soaks
-                {"headroom_efc", static_cast<double>(sz[0]) / std::max(1, ref_efc)},
-                {"headroom_con", static_cast<double>(sz[1]) / std::max(1, ref_con)},
-                {"headroom_stack", static_cast<double>(sz[2]) / std::max(1, ref_stack)}};
+                {"headroom", static_cast<double>(sz) / std::max<int64_t>(1, ref_arena)}};
     try {
       sim::SimModel model = sim::two_hand_scene(spec0, p).build("two_hand_scene");
       row["mjdata_bytes_per_slot"] = model.data_bytes();
       row["gb_for_slots"] = static_cast<double>(model.data_bytes()) * cfg.memory_slots / 1e9;
     } catch (const ModelError& e) {
-      // MuJoCo's compiler runs a forward pass: too small a stack fails already there
+      // MuJoCo's compiler runs a forward pass: too small an arena fails already there
       row["error"] = e.what();
     }
     mem["sizes"].push_back(row);

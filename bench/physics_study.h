@@ -5,6 +5,8 @@
 // reads its results.
 #pragma once
 
+#include <array>
+
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -76,6 +78,22 @@ nlohmann::json measure_coupling(const sim::SimModel& model, const sim::HandSpec&
 // (steady speed, and the rotation it induces) and a constant torque (steady angular speed).
 // The right hand, onto which the egg falls, is reported for the zero-wrench case too.
 nlohmann::json measure_hang(const sim::SimModel& model, double force, double torque);
+
+// The original's free base: no joints, but PhysX's damping of `damping` (1/s) on the linear and
+// angular velocity of every hand link, applied once per `substep` as v <- (v + a dt) max(0,
+// 1 - c dt). Under a steady force or torque the whole hand then moves like one body whose
+// speed settles where the damping takes back what the push adds each substep, as a damper of
+// m (1 - k) / (dt k) would hold it (k = 1 - c dt); likewise per axis of rotation with the
+// hand's inertia about its centre of mass. Mass and inertia are this model's (which follow the
+// original's link masses), at the scene's initial pose.
+struct PhysxDampedResponse {
+  double mass = 0;                          // kg, every body of the hand
+  std::array<double, 3> inertia{};          // kg m^2 about the centre of mass, world x, y, z
+  double linear_damping = 0;                // N s/m that gives the same steady speed
+  std::array<double, 3> angular_damping{};  // N m s/rad per world axis, likewise
+};
+PhysxDampedResponse physx_damped_response(const sim::SimModel& model, const sim::HandIndex& hand,
+                                          double damping = 100.0, double substep = 1.0 / 120.0);
 
 // Step responses of FF3 and FF2 (left hand) to a target step of `step_rad`: rise time (10-90%),
 // overshoot, 2% settling time, error after 1 s.

@@ -91,7 +91,7 @@ void SoakTally::add(const sim::SimBatch& batch) {
     for (int k = 0; k < sim::kFaultKinds; ++k)
       if (batch.fault[s] & (1u << k)) ++by_kind[k];
     const mjData* d = batch.data(s);
-    maxuse_stack = std::max(maxuse_stack, d->maxuse_stack);
+    maxuse_arena = std::max(maxuse_arena, static_cast<int64_t>(d->maxuse_arena));
     maxuse_con = std::max(maxuse_con, d->maxuse_con);
     maxuse_efc = std::max(maxuse_efc, d->maxuse_efc);
   }
@@ -103,7 +103,7 @@ void SoakTally::to_json(json& out) const {
   out["faults_exploded"] = by_kind[2];
   out["faults_mujoco_warning"] = by_kind[3];
   out["faults_mujoco_error"] = by_kind[4];
-  out["maxuse_stack"] = maxuse_stack;
+  out["maxuse_arena"] = maxuse_arena;
   out["maxuse_con"] = maxuse_con;
   out["maxuse_efc"] = maxuse_efc;
 }
@@ -249,9 +249,7 @@ json run_soak(const SoakConfig& cfg) {
               {"slot_steps_per_s", steps * cfg.slots / secs},
               {"faults", batch.total_faults()},
               {"episode_steps", cfg.episode_steps},
-              {"nstack", model.mj()->nstack},
-              {"nconmax", model.mj()->nconmax},
-              {"njmax", model.mj()->njmax},
+              {"memory", model.mj()->narena},
               {"timestep", p.timestep},
               {"substeps", p.substeps},
               {"max_force", cfg.max_force},

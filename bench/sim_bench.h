@@ -40,12 +40,13 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 // What a soak watches over many steps: faults by kind (sim::FaultBits) and the largest MuJoCo
-// memory use of any slot (stack, contacts, constraint rows).
+// memory use of any slot (arena bytes, contacts, constraint rows).
 struct SoakTally {
   int64_t by_kind[5] = {0, 0, 0, 0, 0};
-  int maxuse_stack = 0, maxuse_con = 0, maxuse_efc = 0;
+  int64_t maxuse_arena = 0;
+  int maxuse_con = 0, maxuse_efc = 0;
   void add(const sim::SimBatch& batch);     // after each step
-  void to_json(nlohmann::json& out) const;  // faults_bad_input, ..., maxuse_stack, ...
+  void to_json(nlohmann::json& out) const;  // faults_bad_input, ..., maxuse_arena, ...
 };
 
 // Resets the slots whose episode of `episode_steps` control steps ends after control step

@@ -34,12 +34,14 @@ json measure(tasks::TaskEnv& env, const TaskBenchConfig& cfg, std::mt19937_64& r
   const int64_t faults0 = env.batch().total_faults();
   double stepping = 0;
   int64_t steps = 0;
+  SoakTally tally;  // largest memory use, outside the timed part
   while (stepping < cfg.min_seconds) {
     tasks::random_actions(a, rng);
     auto t0 = std::chrono::steady_clock::now();
     env.step(a);
     stepping += seconds_since(t0);
     ++steps;
+    tally.add(env.batch());
   }
   auto st = env.take_stats();
   const double slot_steps = static_cast<double>(steps) * env.nslot();
@@ -51,7 +53,11 @@ json measure(tasks::TaskEnv& env, const TaskBenchConfig& cfg, std::mt19937_64& r
           {"slot_steps_per_s", slot_steps / stepping},
           {"physics_steps_per_s", slot_steps * substeps / stepping},
           {"episodes", st.episodes},
-          {"faults", env.batch().total_faults() - faults0}};
+          {"faults", env.batch().total_faults() - faults0},
+          {"memory", env.model().mj()->narena},
+          {"maxuse_arena", tally.maxuse_arena},
+          {"maxuse_con", tally.maxuse_con},
+          {"maxuse_efc", tally.maxuse_efc}};
 }
 
 // A shorter run with the stage timers on: task stages (thread-seconds) and MuJoCo's timers

@@ -1,16 +1,7 @@
-# every dependency is a Debian 12 package (see README); LibTorch may instead come from an
+# every dependency but MuJoCo (cmake/BidexMuJoCo.cmake: the official wheel) is a Debian 12 package
+# (see README); LibTorch may instead come from an
 # installed PyTorch through CMAKE_PREFIX_PATH (python3 -c "import torch;print(torch.utils.cmake_prefix_path)")
-find_package(mujoco 2.2 REQUIRED)
-# Debian's mujoco config names /usr/include/libqhull_r/, which only libqhull-dev provides and
-# which we never include: keep only the include folders that exist
-get_target_property(_mj_inc mujoco::mujoco INTERFACE_INCLUDE_DIRECTORIES)
-set(_mj_keep "")
-foreach(_dir IN LISTS _mj_inc)
-  if(EXISTS "${_dir}")
-    list(APPEND _mj_keep "${_dir}")
-  endif()
-endforeach()
-set_target_properties(mujoco::mujoco PROPERTIES INTERFACE_INCLUDE_DIRECTORIES "${_mj_keep}")
+include(${CMAKE_CURRENT_LIST_DIR}/BidexMuJoCo.cmake)
 find_package(yaml-cpp REQUIRED)
 find_package(SQLite3 REQUIRED)
 find_package(Eigen3 3.3 REQUIRED NO_MODULE)

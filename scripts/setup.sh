@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
-# Installs whatever Debian 12 packages bidex needs and are missing, then configures and builds
-# it (Release, Ninja, ccache when present) into ./build (or $BIDEX_BUILD_DIR).
-#   scripts/setup.sh            install missing packages, build everything
-#   scripts/setup.sh --no-apt   only build (for machines without package access)
+# Installs whatever Debian 12 packages bidex needs and are missing, makes the virtual environment
+# .venv/ with the pinned MuJoCo wheel (its C library and headers; Debian's MuJoCo is 2.2.2), then
+# configures and builds bidex (Release, Ninja, ccache when present) into ./build (or
+# $BIDEX_BUILD_DIR).
+#   scripts/setup.sh            install what is missing, build everything
+#   scripts/setup.sh --no-apt   no Debian packages (machines without apt); the venv as above
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build ccache git pkg-config
-          libmujoco-dev libmujoco-samples libtorch-dev libyaml-cpp-dev libsqlite3-dev catch2
+          python3-venv libtorch-dev libyaml-cpp-dev libsqlite3-dev catch2
           libeigen3-dev libcli11-dev nlohmann-json3-dev
           libosmesa6-dev libpng-dev)  # headless rendering (sim/render): OSMesa and libpng
 build_dir=${BIDEX_BUILD_DIR:-build}
@@ -27,6 +29,15 @@ if [[ "${1:-}" != "--no-apt" ]]; then
     apt-get update -qq
     apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
   fi
+fi
+
+# MuJoCo from its official wheel, pinned (cmake/BidexMuJoCo.cmake finds it there)
+mujoco_version=3.17.0
+venv=.venv
+if ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.version('mujoco') != '$mujoco_version')" 2>/dev/null; then
+  echo "setup: installing mujoco==$mujoco_version into $venv/"
+  [[ -x "$venv/bin/python" ]] || python3 -m venv "$venv"
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check "mujoco==$mujoco_version"
 fi
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release ${BIDEX_CMAKE_ARGS:-} >/dev/null

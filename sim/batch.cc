@@ -19,8 +19,9 @@ namespace {
 // (d->warning) and surface as fault flags, so the global printer stays quiet.
 void quiet_warning(const char*) {}
 
-// MuJoCo 2.2.2 ends the process on an engine error (a full mjData stack, for one); thrown
-// instead, the error unwinds to the slot's step, which flags and resets that slot alone.
+// MuJoCo ends the process on an engine error (a full arena, for one) unless the user handler
+// leaves it; thrown instead, the error unwinds to the slot's step, which flags and resets that
+// slot alone.
 struct MujocoError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
@@ -131,13 +132,11 @@ void write_outputs(const mjData* d, SimBatch& b, int s) {
 
 int warning_total(const mjData* d) {
   int n = 0;
-  for (int i = 0; i < mjNWARNING; ++i)
-    if (i != mjWARN_VGEOMFULL) n += d->warning[i].number;
+  for (int i = 0; i < mjNWARNING; ++i) n += d->warning[i].number;
   return n;
 }
 
 void update_base_wrench(const SimModel& model, mjData* d, const double* wrench) {
-  const auto& comp = model.gravity_compensation();
   const auto& hands = model.hands();
   for (size_t h = 0; h < hands.size(); ++h) {
     if (!hands[h].free_base) continue;
@@ -148,18 +147,15 @@ void update_base_wrench(const SimModel& model, mjData* d, const double* wrench) 
     for (int k = 0; k < 3; ++k) r[k] = d->xpos[3 * b + k] - d->xipos[3 * b + k];
     mju_cross(moment, r, f);
     double* row = d->xfrc_applied + b * 6;
-    const double* base = comp.data() + b * 6;
     for (int k = 0; k < 3; ++k) {
-      row[k] = base[k] + f[k];
-      row[3 + k] = base[3 + k] + (f[3 + k] + moment[k]);
+      row[k] = f[k];
+      row[3 + k] = f[3 + k] + moment[k];
     }
   }
 }
 
 void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench) {
   std::memcpy(d->ctrl, ctrl, sizeof(double) * model.mj()->nu);
-  const auto& comp = model.gravity_compensation();
-  std::memcpy(d->xfrc_applied, comp.data(), sizeof(double) * comp.size());
   update_base_wrench(model, d, wrench);
 }
 

@@ -146,8 +146,9 @@ void reset_all(const SimModel& model, SimBatch& batch);
 // rewrite the slot's output rows.
 void sync_slot(const SimModel& model, SimBatch& batch, int slot);
 
-// Writes one slot's inputs into its MuJoCo data: actuator targets, and applied forces = the
-// hands' gravity compensation plus each free base's world-frame force and torque. A base force
+// Writes one slot's inputs into its MuJoCo data: actuator targets, and each free base's
+// world-frame force and torque as applied forces (the hands' weight is cancelled by MuJoCo's
+// gravcomp, scene.cc). A base force
 // acts at the base's pivot (the mount origin, where the ball joint turns), so a push translates
 // the hand without turning it. Used by `step`; public so that benchmarks drive worlds the same way.
 void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const double* wrench);
@@ -155,8 +156,7 @@ void apply_inputs(const SimModel& model, mjData* d, const double* ctrl, const do
 // offset from the centre of mass turns with the base): between the substeps of one control step.
 void update_base_wrench(const SimModel& model, mjData* d, const double* wrench);
 
-// MuJoCo warnings a slot's data has counted (all kinds but the renderer's visual-geom overflow);
-// a change across a step is a kFaultMujocoWarn.
+// MuJoCo warnings a slot's data has counted; a change across a step is a kFaultMujocoWarn.
 int warning_total(const mjData* d);
 
 // Uniform in [lo, hi) from 53 bits of a slot's stream: the same on every platform (unlike

@@ -9,17 +9,17 @@
 namespace bidex::sim {
 
 mjModel* compile_mjcf(const std::string& mjcf, const std::string& name) {
-  // MuJoCo 2.2.2 loads from memory through a virtual file system: make a file, copy the bytes
-  std::unique_ptr<mjVFS> vfs(new mjVFS);
-  mj_defaultVFS(vfs.get());
+  // loaded from memory through a virtual file system holding one file, the text
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
   const char* fname = "scene.xml";
-  if (mj_makeEmptyFileVFS(vfs.get(), fname, static_cast<int>(mjcf.size())) != 0)
+  if (mj_addBufferVFS(&vfs, fname, mjcf.data(), static_cast<int>(mjcf.size())) != 0) {
+    mj_deleteVFS(&vfs);
     throw ModelError(name + ": cannot create an in-memory file for the model");
-  int idx = mj_findFileVFS(vfs.get(), fname);
-  std::memcpy(vfs->filedata[idx], mjcf.data(), mjcf.size());
+  }
   char err[1024] = "";
-  mjModel* m = mj_loadXML(fname, vfs.get(), err, sizeof err);
-  mj_deleteVFS(vfs.get());
+  mjModel* m = mj_loadXML(fname, &vfs, err, sizeof err);
+  mj_deleteVFS(&vfs);
   if (!m) throw ModelError(name + ": MuJoCo could not compile the model: " + err);
   return m;
 }
@@ -31,17 +31,9 @@ SimModel::SimModel(mjModel* m, std::string mjcf, PhysicsOptions physics,
       physics_(std::move(physics)),
       hands_(std::move(hands)),
       objects_(std::move(objects)) {
-  // gravity compensation: +m g at each hand body's centre of mass (xfrc_applied acts there)
-  gravcomp_.assign(static_cast<size_t>(m_->nbody) * 6, 0.0);
-  if (physics_.gravity_free_hands) {
-    for (auto& h : hands_)
-      for (int b : h.bodies)
-        for (int k = 0; k < 3; ++k) gravcomp_[b * 6 + k] = -m_->body_mass[b] * m_->opt.gravity[k];
-  }
   // memory of one world, measured on a real mjData
   mjData* d = mj_makeData(m_);
-  data_bytes_ = sizeof(mjData) + static_cast<size_t>(d->nbuffer) +
-                static_cast<size_t>(d->nstack) * sizeof(mjtNum);
+  data_bytes_ = sizeof(mjData) + static_cast<size_t>(d->nbuffer) + static_cast<size_t>(d->narena);
   mj_deleteData(d);
 }
 
@@ -55,7 +47,6 @@ SimModel::SimModel(SimModel&& o) noexcept
       physics_(std::move(o.physics_)),
       hands_(std::move(o.hands_)),
       objects_(std::move(o.objects_)),
-      gravcomp_(std::move(o.gravcomp_)),
       data_bytes_(o.data_bytes_) {
   o.m_ = nullptr;
 }
@@ -69,7 +60,6 @@ SimModel& SimModel::operator=(SimModel&& o) noexcept {
     physics_ = std::move(o.physics_);
     hands_ = std::move(o.hands_);
     objects_ = std::move(o.objects_);
-    gravcomp_ = std::move(o.gravcomp_);
     data_bytes_ = o.data_bytes_;
   }
   return *this;

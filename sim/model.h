@@ -70,9 +70,7 @@ class SimModel {
   int nsensordata() const;
   int nwrench() const { return static_cast<int>(hands_.size()) * 6; }
 
-  // Constant applied force per body (nbody x 6) that cancels gravity on every hand body.
-  const std::vector<double>& gravity_compensation() const { return gravcomp_; }
-  // Bytes of one mjData of this model (struct, buffer and stack), as allocated by MuJoCo.
+  // Bytes of one mjData of this model (struct, buffer and arena), as allocated by MuJoCo.
   size_t data_bytes() const { return data_bytes_; }
 
  private:
@@ -81,7 +79,6 @@ class SimModel {
   PhysicsOptions physics_;
   std::vector<HandIndex> hands_;
   std::vector<ObjectIndex> objects_;
-  std::vector<double> gravcomp_;
   size_t data_bytes_ = 0;
 };
 

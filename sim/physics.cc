@@ -39,7 +39,7 @@ PhysicsOptions load_physics(const std::string& path) {
 PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   n.allow_keys({"timestep", "substeps", "integrator", "solver", "iterations", "tolerance", "cone",
                 "contact_solref", "contact_solimp", "coupling_solref", "coupling_solimp",
-                "gravity_free_hands", "njmax", "nconmax", "nstack", "max_speed"});
+                "gravity_free_hands", "memory", "max_speed"});
   auto pos_double = [&](const char* key, double& out) {
     if (auto v = n.maybe(key)) {
       double x = v->as<double>();
@@ -58,9 +58,7 @@ PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   pos_int("substeps", o.substeps);
   pos_int("iterations", o.iterations);
   pos_double("tolerance", o.tolerance);
-  pos_int("njmax", o.njmax);
-  pos_int("nconmax", o.nconmax);
-  pos_int("nstack", o.nstack);
+  pos_int("memory", o.memory);
   pos_double("max_speed", o.max_speed);
   if (auto v = n.maybe("integrator")) {
     o.integrator = v->as<std::string>();

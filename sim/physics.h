@@ -25,10 +25,10 @@ struct PhysicsOptions {
   std::array<double, 5> contact_solimp{0.99, 0.999, 0.001, 0.5, 2.0};
   std::array<double, 2> coupling_solref{2.0 / 480.0, 1.0};     // distal-middle coupling
   std::array<double, 5> coupling_solimp{0.99, 0.999, 0.001, 0.5, 2.0};
-  bool gravity_free_hands = true;  // hands carry no weight, as in the original
-  int njmax = 128;    // constraint rows per world (joint friction, limits, couplings, contacts)
-  int nconmax = 32;   // contacts per world
-  int nstack = 28000; // mjData stack (mjtNums) per world; too small aborts the process
+  bool gravity_free_hands = true;  // hands carry no weight, as in the original (gravcomp)
+  // bytes of one world's arena (MuJoCo 3's <size memory>): contacts, constraint rows and the
+  // solver's scratch; a world that fills it is a fault and a reset
+  int memory = 1 << 20;
   double max_speed = 1000.0;  // a |qvel| above this (m/s or rad/s) is an exploded slot
 
   double control_dt() const { return timestep * substeps; }

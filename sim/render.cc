@@ -40,7 +40,7 @@ namespace {
 constexpr int kMaxSide = 4096;
 
 // ---------------------------------------------------------------------------------------------
-// MuJoCo's errors. MuJoCo 2.2.2 ends the process on an error unless mju_user_error is set. The
+// MuJoCo's errors. MuJoCo ends the process on an error unless mju_user_error leaves it. The
 // first render chains a handler in front of whatever is installed: on a thread inside render()
 // it throws bidex::Error; elsewhere it hands the message to the previous handler (SimBatch's,
 // which throws), or, with none, does what MuJoCo would have done (report and exit).

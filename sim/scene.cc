@@ -137,8 +137,7 @@ std::string SceneBuilder::mjcf() const {
   x << "  <option timestep=\"" << num(p.timestep) << "\" integrator=\"" << p.integrator
     << "\" solver=\"" << p.solver << "\" iterations=\"" << p.iterations << "\" tolerance=\""
     << num(p.tolerance) << "\" cone=\"" << p.cone << "\"/>\n";
-  x << "  <size njmax=\"" << p.njmax << "\" nconmax=\"" << p.nconmax << "\" nstack=\"" << p.nstack
-    << "\"/>\n";
+  x << "  <size memory=\"" << p.memory << "\"/>\n";
   x << "  <visual><global offwidth=\"1280\" offheight=\"960\"/></visual>\n";
   // explicit <pair>s (the hands' self-contacts) do not take geom defaults: give them the same
   // softness, or they keep MuJoCo's own (solref 0.02), five times softer
@@ -183,6 +182,7 @@ std::string SceneBuilder::mjcf() const {
       const BodySpec& b = h.spec.bodies[i];
       indent(x, depth);
       x << "<body name=\"" << pre << b.name << "\"";
+      if (p.gravity_free_hands) x << " gravcomp=\"1\"";
       if (i == 0) {
         x << " pos=\"" << nums(h.where.pose.pos) << "\" quat=\"" << nums(from_eigen(mount)) << "\"";
       } else {

@@ -153,9 +153,7 @@ sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
   // object fits the shared limits; measured by the two_catch_underarm soak)
   sim::PhysicsOptions ph = physics;
   if (nobj_ > 1) {
-    ph.njmax += 64;
-    ph.nconmax += 16;
-    ph.nstack += 12000;
+    ph.memory += 256 << 10;
   }
   sim::SceneBuilder sb(ph);
   const auto base = spec().free_base ? sim::Base::kFree : sim::Base::kFixed;

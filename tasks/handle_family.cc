@@ -236,9 +236,7 @@ sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
   // contacts each; the door's large panels meet many finger segments at once (sizes held by
   // the soaks)
   sim::PhysicsOptions ph = physics;
-  ph.njmax += 128;
-  ph.nconmax += 32;
-  ph.nstack += 24000;
+  ph.memory += 512 << 10;
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::ObjectSpec o;

@@ -143,9 +143,7 @@ sim::SceneBuilder ManipTask::scene_with_hands(const sim::HandSpec& right_hand,
   // two objects (or a table and an object) in contact with both hands at once: the room that
   // two_catch_underarm needed for two eggs, doubled for boxes (up to 4 contacts per box face)
   sim::PhysicsOptions ph = physics;
-  ph.njmax += 128;
-  ph.nconmax += 32;
-  ph.nstack += 24000;
+  ph.memory += 512 << 10;
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, c_.right, c_.left, sim::Base::kFree);
   return sb;

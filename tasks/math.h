@@ -1,7 +1,5 @@
 // Vector and quaternion helpers for per-slot task math: plain arrays of doubles, no MuJoCo
-// types. The basic operations are the GPU engine's (sim/gpu/spatial.h, host and device code);
-// what only tasks need (rotation distance, Euler angles, the original's random orientation)
-// is here. Quaternions are (w, x, y, z), MuJoCo's order; observations write them as
+// types. The basic operations are marked for host and device (core/hd.h). Quaternions are (w, x, y, z), MuJoCo's order; observations write them as
 // (x, y, z, w) (put_quat_xyzw, tasks/README.md).
 #pragma once
 
@@ -11,16 +9,53 @@
 #include <random>
 
 #include "sim/batch.h"
-#include "sim/gpu/spatial.h"
+#include "core/hd.h"
 
 namespace bidex::tasks::math {
 
-namespace gpu = sim::gpu;
-
-using gpu::cross3;
-using gpu::dot3;
-using gpu::mul_quat;  // (out, a, b): out = a * b, may alias
 using sim::uniform;
+
+BIDEX_HD inline double dot3(const double* a, const double* b) {
+  return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+// out = a x b; out may alias a or b
+BIDEX_HD inline void cross3(double* out, const double* a, const double* b) {
+  const double t0 = a[1] * b[2] - a[2] * b[1];
+  const double t1 = a[2] * b[0] - a[0] * b[2];
+  const double t2 = a[0] * b[1] - a[1] * b[0];
+  out[0] = t0;
+  out[1] = t1;
+  out[2] = t2;
+}
+// out = a * b (Hamilton product); out may alias a or b
+BIDEX_HD inline void mul_quat(double* out, const double* a, const double* b) {
+  const double w = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3];
+  const double x = a[0] * b[1] + a[1] * b[0] + a[2] * b[3] - a[3] * b[2];
+  const double y = a[0] * b[2] - a[1] * b[3] + a[2] * b[0] + a[3] * b[1];
+  const double z = a[0] * b[3] + a[1] * b[2] - a[2] * b[1] + a[3] * b[0];
+  out[0] = w;
+  out[1] = x;
+  out[2] = y;
+  out[3] = z;
+}
+// out = q v q*, the vector v rotated by the unit quaternion q; out must not alias v
+BIDEX_HD inline void rot_vec_quat(double* out, const double* v, const double* q) {
+  // t = w v + q_xyz x v; out = v + 2 q_xyz x t
+  const double t0 = q[0] * v[0] + q[2] * v[2] - q[3] * v[1];
+  const double t1 = q[0] * v[1] + q[3] * v[0] - q[1] * v[2];
+  const double t2 = q[0] * v[2] + q[1] * v[1] - q[2] * v[0];
+  out[0] = v[0] + 2 * (q[2] * t2 - q[3] * t1);
+  out[1] = v[1] + 2 * (q[3] * t0 - q[1] * t2);
+  out[2] = v[2] + 2 * (q[1] * t1 - q[2] * t0);
+}
+// The rotation by `angle` (rad) about the unit vector `axis`.
+BIDEX_HD inline void axis_angle_quat(double* q, const double* axis, double angle) {
+  const double s = sin(angle * 0.5);
+  q[0] = cos(angle * 0.5);
+  q[1] = axis[0] * s;
+  q[2] = axis[1] * s;
+  q[3] = axis[2] * s;
+}
 
 inline double norm3(const double* a) { return std::sqrt(dot3(a, a)); }
 inline double dist3(const double* a, const double* b) {
@@ -35,7 +70,7 @@ inline void quat_conj(double* out, const double* q) {
 }
 // The point at `local` in a body frame at (pos, quat), in world coordinates.
 inline void frame_point(double* out, const double* pos, const double* quat, const double* local) {
-  gpu::rot_vec_quat(out, local, quat);
+  rot_vec_quat(out, local, quat);
   for (int k = 0; k < 3; ++k) out[k] += pos[k];
 }
 
@@ -76,8 +111,8 @@ inline void random_rotation(double* out, std::mt19937_64& rng) {
   const double r0 = uniform(rng, -1, 1), r1 = uniform(rng, -1, 1);
   const double ax[3] = {1, 0, 0}, ay[3] = {0, 1, 0};
   double qx[4], qy[4];
-  gpu::axis_angle_quat(qx, ax, M_PI * r0);
-  gpu::axis_angle_quat(qy, ay, M_PI * r1);
+  axis_angle_quat(qx, ax, M_PI * r0);
+  axis_angle_quat(qy, ay, M_PI * r1);
   mul_quat(out, qx, qy);
 }
 

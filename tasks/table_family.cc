@@ -315,7 +315,7 @@ void quat_of_rpy(double* q, const sim::Vec3& rpy) {
 void quat_axis(double* q, int axis, double angle) {
   double a[3] = {0, 0, 0};
   a[axis] = 1;
-  math::gpu::axis_angle_quat(q, a, angle);
+  math::axis_angle_quat(q, a, angle);
 }
 
 // The pose of a child frame at `local` (position) and `lq` (orientation) under (pos, quat).
@@ -342,27 +342,19 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
   // an articulated object on a table under two hands: room for its contacts (as two objects
   // in the catch family); water balls add theirs (README: measured by the soak)
   sim::PhysicsOptions ph = physics;
-  ph.njmax += 64;
-  ph.nconmax += 16;
-  ph.nstack += 12000;
+  ph.memory += 256 << 10;
   if (kind_ == TableKind::kSwitch) {
     // fingers pressed between a rocker and its housing: many contacts at once
-    ph.njmax += 64;
-    ph.nconmax += 16;
-    ph.nstack += 6000;
+    ph.memory += 256 << 10;
   }
   if (kind_ == TableKind::kPourWater) {
     // two free vessels whose flat bottoms rest on the table (4 contacts each, more when they
     // touch each other or the hands)
-    ph.njmax += 128;
-    ph.nconmax += 24;
-    ph.nstack += 12000;
+    ph.memory += 512 << 10;
     // water balls: measured under random actions (README), with a margin of about 2: 8 balls
     // used 75,000 stack values at most, 30 balls 323,000 (it grows with the contact rows)
     const int n = p_.water_count;
-    ph.njmax += 24 * n;
-    ph.nconmax += 4 * n;
-    ph.nstack += 8000 * n + 400 * n * n;
+    ph.memory += (96 << 10) * n + (4 << 10) * n * n;
   }
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);

@@ -414,10 +414,10 @@ TEST_CASE("soak: 64 slots x 150 control steps of random inputs without a fault",
 }
 
 TEST_CASE("a MuJoCo error in one slot faults and resets that slot alone", "[sim][batch][faults]") {
-  // two falling boxes with a stack large enough to compile and to fall freely, too small for
-  // their contact: MuJoCo 2.2.2 raises "stack overflow", which would end the process unhandled
+  // two falling boxes with an arena large enough to compile and to fall freely, too small for
+  // their contact: MuJoCo raises an out-of-memory error, which would end the process unhandled
   PhysicsOptions p = bidex::test::physics();
-  p.nstack = 300;
+  p.memory = 3000;
   SceneBuilder sb(p);
   sb.set_floor(false);
   ObjectSpec box;
@@ -446,6 +446,7 @@ TEST_CASE("a MuJoCo error in one slot faults and resets that slot alone", "[sim]
   CHECK(batch.fault_count[1] == 1);
   CHECK(batch.episode[1] == 1);
   CHECK(batch.data(1)->pstack == 0);
+  CHECK(batch.data(1)->parena == 0);
   // reset to the initial pose, the other slots still falling undisturbed
   CHECK(batch.qpos[1 * batch.qpos_width + high.qpos_adr + 2] == Approx(1.2));
   CHECK(batch.qpos[0 * batch.qpos_width + high.qpos_adr + 2] < 1.2);

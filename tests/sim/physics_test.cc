@@ -39,9 +39,7 @@ contact_solimp: [0.9, 0.95, 0.002, 0.4, 3.0]
 coupling_solref: [0.003, 1.1]
 coupling_solimp: [0.98, 0.997, 0.0005, 0.6, 2.5]
 gravity_free_hands: false
-njmax: 123
-nconmax: 45
-nstack: 6789
+memory: 654321
 max_speed: 321.5
 )",
                                  "all.yaml");
@@ -59,9 +57,7 @@ max_speed: 321.5
   CHECK(p.coupling_solref == std::array<double, 2>{0.003, 1.1});
   CHECK(p.coupling_solimp == std::array<double, 5>{0.98, 0.997, 0.0005, 0.6, 2.5});
   CHECK(p.gravity_free_hands == false);
-  CHECK(p.njmax == 123);
-  CHECK(p.nconmax == 45);
-  CHECK(p.nstack == 6789);
+  CHECK(p.memory == 654321);
   CHECK(p.max_speed == 321.5);
 
   PhysicsOptions base;

@@ -256,9 +256,9 @@ TEST_CASE("reset follows edited YAML ranges without rotations and with wider noi
 // Reset states the physics must start from cleanly.
 
 // two_catch_underarm: both eggs can rest in the palms at once; their contacts must fit the
-// scene's constraint rows (more than one-object scenes get), or MuJoCo warns (constraint buffer
+// scene's arena (more than one-object scenes get), or MuJoCo warns (constraint or contact buffer
 // full) and the batch faults the slot on its first step.
-TEST_CASE("two_catch_underarm reset states fit the constraint buffer", "[tasks][reset]") {
+TEST_CASE("two_catch_underarm reset states fit the arena", "[tasks][reset]") {
   auto env = make_env("two_catch_underarm", 256, 1);
   const mjModel* m = env->model().mj();
   int full = 0;
@@ -269,7 +269,7 @@ TEST_CASE("two_catch_underarm reset states fit the constraint buffer", "[tasks][
   std::vector<float> zero(static_cast<size_t>(env->nslot()) * env->act_dim(), 0.f);
   env->step(zero);
   const auto st = env->take_stats();
-  INFO(full << " of 256 reset states fill the " << m->njmax << " constraint rows; " << st.faults
+  INFO(full << " of 256 reset states fill the " << m->narena << "-byte arena; " << st.faults
             << " slots faulted on the first step");
   CHECK(full == 0);
   CHECK(st.faults == 0);
