@@ -6,7 +6,8 @@
 #   bench/mujoco_compare.sh OUTDIR OLD_SRC OLD_DEPS NEW_DEPS
 # OLD_SRC: the older commit's source (git archive OLD | tar -x -C OLD_SRC); OLD_DEPS, NEW_DEPS:
 # each tree's `scripts/offline-build.sh bundle` folder. BIDEX_SLOTS (2048), BIDEX_SECONDS (3),
-# BIDEX_TASKS (all twenty) change what is measured.
+# BIDEX_TASKS (all twenty) change what is measured; BIDEX_OLD_COMMIT and BIDEX_COMMIT name the two
+# commits in the result files when the trees have no .git.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=$(realpath -m "${1:?OUTDIR}")
@@ -32,8 +33,9 @@ tasks=${BIDEX_TASKS:-"hand_over catch_underarm catch_over2underarm catch_abreast
 for t in $tasks; do
   for v in old new; do
     build=${v}_build
+    commit=$([ $v = old ] && echo "${BIDEX_OLD_COMMIT:-old}" || echo "${BIDEX_COMMIT:-new}")
     (cd "$([ $v = old ] && echo "$old_src" || pwd)" &&
-      BIDEX_DATA_DIR="$PWD" "${!build}/apps/bidex" bench task --task "$t" --slots "$slots" \
+      BIDEX_COMMIT=$commit BIDEX_DATA_DIR="$PWD" "${!build}/apps/bidex" bench task --task "$t" --slots "$slots" \
         --seconds "$secs" --no-profile --out "$out/task_${v}_$t.json") >/dev/null 2>&1 ||
       echo "bench task $v $t failed"
   done
