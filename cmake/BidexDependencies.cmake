@@ -37,6 +37,7 @@ message(STATUS "bidex: MuJoCo ${mujoco_VERSION}, Torch ${Torch_VERSION}, Torch C
 # are found through CMAKE_PREFIX_PATH. AUTO prefers OSMesa: software, the same on every machine.
 set(BIDEX_RENDER_GL AUTO CACHE STRING "Offscreen OpenGL for sim/render: AUTO, OSMESA, EGL or NONE")
 set_property(CACHE BIDEX_RENDER_GL PROPERTY STRINGS AUTO OSMESA EGL NONE)
+find_path(BIDEX_GL_INCLUDE_DIR GL/gl.h)  # render.cc includes it with either backend
 find_path(BIDEX_OSMESA_INCLUDE_DIR GL/osmesa.h)
 find_library(BIDEX_OSMESA_LIBRARY OSMesa)
 find_path(BIDEX_EGL_INCLUDE_DIR EGL/egl.h)
@@ -47,14 +48,14 @@ add_library(bidex_render_deps INTERFACE)
 target_link_libraries(bidex_render_deps INTERFACE ${CMAKE_DL_LIBS})
 set(_gl ${BIDEX_RENDER_GL})
 if(_gl STREQUAL "AUTO")
-  if(BIDEX_OSMESA_INCLUDE_DIR AND BIDEX_OSMESA_LIBRARY)
+  if(BIDEX_GL_INCLUDE_DIR AND BIDEX_OSMESA_INCLUDE_DIR AND BIDEX_OSMESA_LIBRARY)
     set(_gl OSMESA)
-  elseif(BIDEX_EGL_INCLUDE_DIR AND BIDEX_EGL_LIBRARY)
+  elseif(BIDEX_GL_INCLUDE_DIR AND BIDEX_EGL_INCLUDE_DIR AND BIDEX_EGL_LIBRARY)
     set(_gl EGL)
   else()
     set(_gl NONE)
-    message(WARNING "bidex: neither OSMesa nor EGL found: `render` will throw "
-                    "(install libosmesa6-dev, or run scripts/setup.sh)")
+    message(WARNING "bidex: no OpenGL headers (GL/gl.h) with OSMesa or EGL found: `render` will "
+                    "throw (install libosmesa6-dev, or run scripts/setup.sh)")
   endif()
 endif()
 if(_gl STREQUAL "OSMESA")
@@ -62,14 +63,16 @@ if(_gl STREQUAL "OSMESA")
     message(FATAL_ERROR "BIDEX_RENDER_GL=OSMESA but GL/osmesa.h or libOSMesa was not found "
                         "(Debian: libosmesa6-dev)")
   endif()
-  target_include_directories(bidex_render_deps SYSTEM INTERFACE ${BIDEX_OSMESA_INCLUDE_DIR})
+  target_include_directories(bidex_render_deps SYSTEM INTERFACE ${BIDEX_OSMESA_INCLUDE_DIR}
+                             ${BIDEX_GL_INCLUDE_DIR})
   target_compile_definitions(bidex_render_deps INTERFACE BIDEX_GL_OSMESA=1)
 elseif(_gl STREQUAL "EGL")
   if(NOT (BIDEX_EGL_INCLUDE_DIR AND BIDEX_EGL_LIBRARY))
     message(FATAL_ERROR "BIDEX_RENDER_GL=EGL but EGL/egl.h or libEGL was not found (Debian: "
                         "libegl-dev, and at run time a vendor library such as libegl-mesa0)")
   endif()
-  target_include_directories(bidex_render_deps SYSTEM INTERFACE ${BIDEX_EGL_INCLUDE_DIR})
+  target_include_directories(bidex_render_deps SYSTEM INTERFACE ${BIDEX_EGL_INCLUDE_DIR}
+                             ${BIDEX_GL_INCLUDE_DIR})
   target_compile_definitions(bidex_render_deps INTERFACE BIDEX_GL_EGL=1)
 elseif(NOT _gl STREQUAL "NONE")
   message(FATAL_ERROR "BIDEX_RENDER_GL must be AUTO, OSMESA, EGL or NONE, not '${_gl}'")
