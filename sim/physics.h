@@ -28,7 +28,7 @@ struct PhysicsOptions {
   bool gravity_free_hands = true;  // hands carry no weight, as in the original (gravcomp)
   // bytes of one world's arena (MuJoCo 3's <size memory>): contacts, constraint rows and the
   // solver's scratch; a world that fills it is a fault and a reset
-  int memory = 1 << 20;
+  int memory = 512 << 10;
   double max_speed = 1000.0;  // a |qvel| above this (m/s or rad/s) is an exploded slot
 
   double control_dt() const { return timestep * substeps; }
