@@ -44,7 +44,8 @@ void add_model_command(CLI::App& app) {
     sim::SimModel model = sb.build(o->out);
     write_file_atomic(o->out, model.mjcf());
     std::printf("wrote %s: %d bodies, %d joints, %d actuators, %d sensors\n", o->out.c_str(),
-                model.nbody(), model.mj()->njnt, model.nu(), model.mj()->nsensor);
+                model.nbody(), static_cast<int>(model.mj()->njnt), model.nu(),
+                static_cast<int>(model.mj()->nsensor));
   });
 }
 

@@ -149,13 +149,7 @@ std::string numbered(const char* base, int i, int n) {
 
 sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
                                    const sim::PhysicsOptions& physics) const {
-  // two objects can both sit in contact with the hands: room for their contact rows (one
-  // object fits the shared limits; measured by the two_catch_underarm soak)
-  sim::PhysicsOptions ph = physics;
-  if (nobj_ > 1) {
-    ph.memory += 256 << 10;
-  }
-  sim::SceneBuilder sb(ph);
+  sim::SceneBuilder sb(physics);
   const auto base = spec().free_base ? sim::Base::kFree : sim::Base::kFixed;
   add_two_hands(sb, right_hand, p_.right, p_.left, base);
   for (int i = 0; i < nobj_; ++i) {

@@ -232,12 +232,7 @@ HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
 
 sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
                                     const sim::PhysicsOptions& physics) const {
-  // room for the object's contacts: two of the pot's bars rest on the table with up to 8
-  // contacts each; the door's large panels meet many finger segments at once (sizes held by
-  // the soaks)
-  sim::PhysicsOptions ph = physics;
-  ph.memory += 512 << 10;
-  sim::SceneBuilder sb(ph);
+  sim::SceneBuilder sb(physics);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::ObjectSpec o;
   o.shape = sim::ObjectSpec::Shape::kMjcf;

@@ -140,11 +140,7 @@ ManipTask::ManipTask(const TaskSpec& spec, CommonParams common)
 
 sim::SceneBuilder ManipTask::scene_with_hands(const sim::HandSpec& right_hand,
                                               const sim::PhysicsOptions& physics) const {
-  // two objects (or a table and an object) in contact with both hands at once: the room that
-  // two_catch_underarm needed for two eggs, doubled for boxes (up to 4 contacts per box face)
-  sim::PhysicsOptions ph = physics;
-  ph.memory += 512 << 10;
-  sim::SceneBuilder sb(ph);
+  sim::SceneBuilder sb(physics);
   add_two_hands(sb, right_hand, c_.right, c_.left, sim::Base::kFree);
   return sb;
 }

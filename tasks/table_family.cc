@@ -339,23 +339,11 @@ TableTask::TableTask(TableKind kind, const TaskSpec& spec, TableParams params)
 
 sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
                                    const sim::PhysicsOptions& physics) const {
-  // an articulated object on a table under two hands: room for its contacts (as two objects
-  // in the catch family); water balls add theirs (README: measured by the soak)
+  // water balls add contacts and constraint rows to the arena: under random actions 8 balls used
+  // 105 KiB of it at most and 30 balls 417 KiB (README), about 14 KiB a ball; 32 KiB a ball
+  // keeps the scene's margin over the use at 3.5x or more
   sim::PhysicsOptions ph = physics;
-  ph.memory += 256 << 10;
-  if (kind_ == TableKind::kSwitch) {
-    // fingers pressed between a rocker and its housing: many contacts at once
-    ph.memory += 256 << 10;
-  }
-  if (kind_ == TableKind::kPourWater) {
-    // two free vessels whose flat bottoms rest on the table (4 contacts each, more when they
-    // touch each other or the hands)
-    ph.memory += 512 << 10;
-    // water balls: measured under random actions (README), with a margin of about 2: 8 balls
-    // used 75,000 stack values at most, 30 balls 323,000 (it grows with the contact rows)
-    const int n = p_.water_count;
-    ph.memory += (96 << 10) * n + (4 << 10) * n * n;
-  }
+  if (kind_ == TableKind::kPourWater) ph.memory += (32 << 10) * p_.water_count;
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::TableSpec table;

@@ -397,14 +397,15 @@ TEST_CASE("door oracles: the leaves driven to their goal angle fire success",
 
 TEST_CASE("door_open_outward: both hands pushed towards the door open it to success",
           "[tasks][handle][oracle]") {
-  // joint targets mid-range, both bases pushed along -x (towards the door) at action 0.2:
-  // the leaves swing out to their stop and the episode succeeds, within 150 steps (2.5 s)
+  // joint targets mid-range, both bases pushed along -x (towards the door) at full force
+  // (833 N: 0.28 m/s against the base damping, as in the original): the leaves swing out to
+  // their stop and the episode succeeds, within 150 steps (2.5 s)
   auto env = make_env("door_open_outward", 1, 1, 1);
   env->reset();
   const auto& act = env->spec().act;
   std::vector<float> a(act.dim(), 0.f);
-  a[act.at("right.base_translation").start] = -0.2f;
-  a[act.at("left.base_translation").start] = -0.2f;
+  a[act.at("right.base_translation").start] = -1.f;
+  a[act.at("left.base_translation").start] = -1.f;
   const auto& task = handle_task(*env);
   bool success = false;
   int steps = 0;
