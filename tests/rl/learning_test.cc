@@ -1,8 +1,8 @@
 // Learning in CI: PPO on catch_underarm_raise (a registered reduced catch_underarm, see its
 // README) with its per-task defaults of configs/train/ppo.yaml (64 slots, 30,720 slot-steps)
 // must lift the policy's mean return well above the random policy's. Measured over seeds 0-3 on
-// two cores (bench/results/learning-ci-2core.json): random 11.5, trained 19.2-22.5; the bar
-// below sits at less than half of the smallest gain.
+// two cores (bench/results/learning-ci-2core-mujoco3.json): random 12.5, trained 20.5-22.5; the
+// bar below sits at less than half of the smallest gain.
 #include "tests/rl/rl_fixture.h"
 
 #include "rl/trainer.h"
