@@ -20,6 +20,7 @@
 #include "core/files.h"
 #include "core/version.h"
 #include "registry/registry.h"
+#include "rl/algorithms.h"
 #include "rl/config.h"
 #include "rl/metrics.h"
 #include "rl/trainer.h"
@@ -233,10 +234,11 @@ void add_train_command(CLI::App& app) {
         if (o->task.empty() == o->suite.empty())
           throw Error("train: give one of --task ID and --suite ID (or --resume DIR)");
         const std::string algo = !o->algo.empty() ? o->algo : (o->suite.empty() ? "ppo" : "mtppo");
-        rl::default_train_config(algo);  // unknown algorithm: the error lists the known ones
-        if (rl::algo_takes_suite(algo) && o->suite.empty())
+        // unknown algorithm: the error lists the known ones
+        const bool on_suite = rl::find_algorithm(algo).trains_on == rl::TrainsOn::kSuite;
+        if (on_suite && o->suite.empty())
           throw Error("train: --algo " + algo + " trains on a suite: give --suite (MT1, MT4, MT20)");
-        if (!rl::algo_takes_suite(algo) && o->task.empty())
+        if (!on_suite && o->task.empty())
           throw Error("train: --algo " + algo + " trains on one task: give --task, or use "
                       "--algo mtppo for a suite");
         if (!o->task.empty()) tasks::find_task(o->task);  // unknown id: lists the known ones

@@ -134,4 +134,28 @@ std::vector<std::string> list_checkpoints(const std::string& run_dir) {
   return names;
 }
 
+void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& archive,
+                         const std::string& path, const std::string& what) {
+  std::vector<std::pair<std::string, std::vector<int64_t>>> want;
+  for (auto& p : m.named_parameters()) want.emplace_back(p.key(), p.value().sizes().vec());
+  for (auto& b : m.named_buffers()) want.emplace_back(b.key(), b.value().sizes().vec());
+  try {
+    m.load(archive);
+  } catch (const c10::Error& e) {
+    std::string msg = e.what();
+    throw Error("checkpoint " + path + ": does not fit " + what + " (" +
+                msg.substr(0, msg.find('\n')) + ")");
+  }
+  auto params = m.named_parameters();
+  auto buffers = m.named_buffers();
+  for (auto& [name, sizes] : want) {
+    const torch::Tensor* t = params.find(name);
+    if (!t) t = buffers.find(name);
+    if (!t || t->sizes().vec() != sizes)
+      throw Error("checkpoint " + path + ": does not fit " + what + ": " + name + " has shape " +
+                  (t ? c10::str(t->sizes()) : std::string("(missing)")) + ", expected " +
+                  c10::str(c10::IntArrayRef(sizes)));
+  }
+}
+
 }  // namespace bidex::rl

@@ -37,4 +37,10 @@ CheckpointMeta load_checkpoint(const std::string& path, torch::serialize::InputA
 // Checkpoint files of a run folder (<run>/checkpoints/update_XXXXXXXX.ckpt), oldest first.
 std::vector<std::string> list_checkpoints(const std::string& run_dir);
 
+// Loads a module's parameters and buffers from `archive` and checks that every tensor kept its
+// shape (LibTorch's Module::load silently takes the archive's shapes); a mismatch is an Error
+// naming `path`, the tensor, both shapes and `what` (e.g. "this run's networks").
+void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& archive,
+                         const std::string& path, const std::string& what);
+
 }  // namespace bidex::rl

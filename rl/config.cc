@@ -7,18 +7,16 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
+#include "rl/algorithms.h"
 #include "sim/hand_spec.h"
 
 namespace bidex::rl {
 
-const std::vector<std::string>& known_algos() {
-  static const std::vector<std::string> algos = {"ppo", "mtppo"};
-  return algos;
-}
-
-bool algo_takes_suite(const std::string& algo) { return algo == "mtppo"; }
-
 namespace {
+
+bool takes_suite(const std::string& algo) {
+  return find_algorithm(algo).trains_on == TrainsOn::kSuite;
+}
 
 std::string quoted(const std::string& s) {
   std::string q = "'";
@@ -54,11 +52,7 @@ void merge(YAML::Node dst, const YAML::Node& src, const std::string& file, const
 }  // namespace
 
 std::string default_train_config(const std::string& algo) {
-  bool known = false;
-  for (auto& a : known_algos()) known |= a == algo;
-  if (!known) {
-    throw ConfigError("", "algo", "a known algorithm (" + join(known_algos()) + ")", quoted(algo));
-  }
+  find_algorithm(algo);  // unknown: a ConfigError listing the known ones
   return sim::data_dir() + "/configs/train/" + algo + ".yaml";
 }
 
@@ -122,7 +116,7 @@ std::string resolve_train_yaml(const std::string& file, const std::string& algo,
     }
   }
   YAML::Node out;
-  out[algo_takes_suite(algo) ? "suite" : "task"] = target;
+  out[takes_suite(algo) ? "suite" : "task"] = target;
   out["algo"] = algo;
   for (auto it = root.begin(); it != root.end(); ++it) out[it->first] = it->second;
   YAML::Emitter em;
@@ -139,19 +133,20 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
   v.allow_keys({"task", "suite", "algo", "seed", "env", "train", "ppo"});
   TrainConfig c;
   c.algo = v.req<std::string>("algo");
-  {
-    bool known = false;
-    for (auto& a : known_algos()) known |= a == c.algo;
-    if (!known) v.child("algo").fail("a known algorithm (" + join(known_algos()) + ")", c.algo);
+  try {
+    find_algorithm(c.algo);
+  } catch (const ConfigError&) {
+    v.child("algo").fail("a known algorithm (" + algorithm_names() + ")", c.algo);
   }
-  // ppo trains on a task, mtppo on a suite
-  const char* want = algo_takes_suite(c.algo) ? "suite" : "task";
-  const char* other = algo_takes_suite(c.algo) ? "task" : "suite";
+  // a task algorithm (ppo) trains on a task, a suite algorithm (mtppo) on a suite
+  const bool suite_algo = takes_suite(c.algo);
+  const char* want = suite_algo ? "suite" : "task";
+  const char* other = suite_algo ? "task" : "suite";
   if (v.has(other))
     v.child(other).fail(std::string("no '") + other + "' key for algorithm " + c.algo + " (it trains on a " +
                             want + ")",
                         v.child(other).repr());
-  (algo_takes_suite(c.algo) ? c.suite : c.task) = v.req<std::string>(want);
+  (suite_algo ? c.suite : c.task) = v.req<std::string>(want);
   {
     auto s = v.child("seed");
     const double x = s.as<double>();

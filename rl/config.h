@@ -54,16 +54,10 @@ struct TrainConfig {
   const std::string& target() const { return suite.empty() ? task : suite; }
 };
 
-// The algorithms `bidex train` knows: ppo (one task) and mtppo (a multi-task suite: PPO on the
-// suite's pack, observations with a one-hot task id).
-const std::vector<std::string>& known_algos();
 
 // The defaults file of an algorithm: <data dir>/configs/train/<algo>.yaml. Unknown algo:
 // ConfigError listing the known ones.
 std::string default_train_config(const std::string& algo);
-
-// Whether an algorithm trains on a suite (mtppo) rather than on one task (ppo).
-bool algo_takes_suite(const std::string& algo);
 
 // Builds the resolved YAML text for a new run: `file`'s top-level keys (per_task removed, the
 // section of the task or suite merged in), then each "key.path=value" override; adds `algo` and

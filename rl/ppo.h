@@ -7,6 +7,7 @@
 
 #include <torch/torch.h>
 
+#include "rl/algorithm.h"
 #include "rl/config.h"
 #include "rl/policy.h"
 
@@ -56,5 +57,12 @@ class Ppo {
   std::unique_ptr<torch::optim::Adam> opt_;
   double lr_;
 };
+
+// PPO behind the learning core's Algorithm interface (mtppo is the same on a suite's pack):
+// `horizon` steps into a Rollout, bootstrapping time limits from the critic, then Ppo::update.
+// Its checkpoint state is the actor-critic with its normalisers ("model"), Adam ("optimizer")
+// and the adaptive learning rate ("lr").
+std::unique_ptr<Algorithm> make_ppo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                    int64_t nslot, const torch::Device& device);
 
 }  // namespace bidex::rl

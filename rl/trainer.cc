@@ -21,10 +21,10 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/progress.h"
+#include "rl/algorithm.h"
 #include "rl/checkpoint.h"
+#include "rl/collector.h"
 #include "rl/metrics.h"
-#include "rl/policy.h"
-#include "rl/ppo.h"
 #include "sim/batch.h"
 #include "sim/tensor.h"
 #include "taskpack/pack.h"
@@ -100,9 +100,10 @@ taskpack::PackSpec run_pack(const TrainConfig& c, int slots) {
   return p;
 }
 
-// Columns of metrics.csv. A task run has one column per reward term; a suite run has the return
-// and success rate of each task, and the mean of the scaled returns (what PPO optimises).
-std::vector<std::string> metric_columns(const taskpack::TaskPack& pack) {
+// Columns of metrics.csv: the run's own (steps, rates, episodes, returns; a task run has one
+// column per reward term, a suite run the return and success rate of each task and the mean of
+// the scaled returns, what the algorithm optimises), the algorithm's metrics, then faults.
+std::vector<std::string> metric_columns(const taskpack::TaskPack& pack, const Algorithm& algo) {
   std::vector<std::string> cols = {"update", "steps", "wall_s", "fps", "sim_fps", "episodes",
                                    "return", "length", "success"};
   if (pack.ngroups() == 1) {
@@ -112,9 +113,8 @@ std::vector<std::string> metric_columns(const taskpack::TaskPack& pack) {
     for (int g = 0; g < pack.ngroups(); ++g) cols.push_back("return_" + pack.label(g));
     for (int g = 0; g < pack.ngroups(); ++g) cols.push_back("success_" + pack.label(g));
   }
-  for (const char* c : {"policy_loss", "value_loss", "entropy", "kl", "lr", "clip_fraction",
-                        "action_std", "faults"})
-    cols.push_back(c);
+  for (auto& c : algo.metric_names()) cols.push_back(c);
+  cols.push_back("faults");
   return cols;
 }
 
@@ -173,8 +173,7 @@ struct Session {
   TrainConfig cfg;
   torch::Device device{torch::kCPU};
   std::unique_ptr<taskpack::TaskPack> env;
-  ActorCritic model{nullptr};
-  std::unique_ptr<Ppo> ppo;
+  std::unique_ptr<Algorithm> algo;
   int64_t update = 0, steps = 0;
   double wall = 0;  // seconds of training, summed over resumed sessions
   std::string last_checkpoint;
@@ -187,10 +186,11 @@ struct Session {
     po.threads = cfg.threads;
     po.seed = env_seed;
     env = std::make_unique<taskpack::TaskPack>(run_pack(cfg, cfg.slots), po);
-    model = ActorCritic(env->obs_dim(), env->act_dim(), cfg.ppo);
-    model->to(device);
-    ppo = std::make_unique<Ppo>(model, cfg.ppo);
+    algo = make_algorithm(cfg.algo, cfg, env->obs_dim(), env->act_dim(), env->nslot(), device);
   }
+
+  // slot-steps per update
+  int64_t batch() const { return int64_t(env->nslot()) * algo->steps_per_update(); }
 
   CheckpointMeta meta() const {
     CheckpointMeta m;
@@ -206,12 +206,8 @@ struct Session {
   }
 
   void save() {
-    torch::serialize::OutputArchive root, net, opt;
-    model->save(net);
-    ppo->optimizer().save(opt);
-    root.write("model", net);
-    root.write("optimizer", opt);
-    root.write("lr", torch::tensor({ppo->lr()}, torch::kFloat64));
+    torch::serialize::OutputArchive root;
+    algo->save(root);
     root.write("wall", torch::tensor({wall}, torch::kFloat64));
     const std::string path = checkpoint_path(dir, update);
     save_checkpoint(path, meta(), root);
@@ -220,32 +216,6 @@ struct Session {
     for (size_t i = 0; i + cfg.keep_checkpoints < all.size(); ++i) ::unlink(all[i].c_str());
   }
 };
-
-// Loads a module's parameters and buffers from `archive` and checks that every tensor kept its
-// shape (LibTorch's Module::load silently takes the archive's shapes).
-void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& archive,
-                         const std::string& path, const std::string& what) {
-  std::vector<std::pair<std::string, std::vector<int64_t>>> want;
-  for (auto& p : m.named_parameters()) want.emplace_back(p.key(), p.value().sizes().vec());
-  for (auto& b : m.named_buffers()) want.emplace_back(b.key(), b.value().sizes().vec());
-  try {
-    m.load(archive);
-  } catch (const c10::Error& e) {
-    std::string msg = e.what();
-    throw Error("checkpoint " + path + ": does not fit " + what + " (" +
-                msg.substr(0, msg.find('\n')) + ")");
-  }
-  auto params = m.named_parameters();
-  auto buffers = m.named_buffers();
-  for (auto& [name, sizes] : want) {
-    const torch::Tensor* t = params.find(name);
-    if (!t) t = buffers.find(name);
-    if (!t || t->sizes().vec() != sizes)
-      throw Error("checkpoint " + path + ": does not fit " + what + ": " + name + " has shape " +
-                  (t ? c10::str(t->sizes()) : std::string("(missing)")) + ", expected " +
-                  c10::str(c10::IntArrayRef(sizes)));
-  }
-}
 
 // "task hand_over" or "suite MT4".
 std::string kind_of(const std::string& target) {
@@ -268,20 +238,24 @@ void check_meta(const CheckpointMeta& m, const std::string& path, const std::str
                              : std::string()));
 }
 
+// A checkpoint must hold the state of this run's algorithm.
+void check_algo(const CheckpointMeta& m, const std::string& path, const std::string& algo,
+                const std::string& where) {
+  if (m.algo != algo)
+    throw Error("checkpoint " + path + " holds the state of algorithm " + m.algo + "; " + where +
+                " trains with " + algo);
+}
+
 void load_into(Session& s, const std::string& path) {
   CheckpointMeta m = read_checkpoint_meta(path);
   check_meta(m, path, s.cfg.target(), s.env->obs_dim(), s.env->act_dim(), "run " + s.dir);
-  torch::serialize::InputArchive root, net, opt;
+  check_algo(m, path, s.cfg.algo, "run " + s.dir);
+  torch::serialize::InputArchive root;
   load_checkpoint(path, root, s.device);
+  s.algo->load(root, path);
   try {
-    root.read("model", net);
-    root.read("optimizer", opt);
-    load_module_checked(*s.model, net, path, "this run's networks");
-    s.ppo->optimizer().load(opt);
-    torch::Tensor lr, wall;
-    root.read("lr", lr);
+    torch::Tensor wall;
     root.read("wall", wall);
-    s.ppo->set_lr(lr.item<double>());
     s.wall = wall.item<double>();
   } catch (const c10::Error& e) {
     std::string msg = e.what();
@@ -301,16 +275,11 @@ std::string fmt(const char* f, double v) {
 TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   SignalScope signals;
   auto& env = *s.env;
-  const int N = env.nslot(), D = env.obs_dim(), A = env.act_dim();
-  const int T = s.cfg.ppo.horizon;
-  const int64_t total_updates = (s.cfg.steps + s.cfg.batch() - 1) / s.cfg.batch();
-  const bool cuda = s.device.is_cuda();
-  auto host_opts = torch::TensorOptions().dtype(torch::kFloat32).pinned_memory(cuda);
-  // one transfer per step: [obs N*D | reward N | done N | bootstrap slot ids K | their final obs K*D]
-  auto staging = torch::empty({int64_t(2) * N * D + 3 * N}, host_opts);
-  float* st = staging.data_ptr<float>();
-  Rollout ro(T, N, D, A, s.device);
-  const double gamma = s.cfg.ppo.gamma;
+  Algorithm& algo = *s.algo;
+  const int T = algo.steps_per_update();
+  const int64_t batch = s.batch();
+  const int64_t total_updates = (s.cfg.steps + batch - 1) / batch;
+  Collector collector(env, s.device);
 
   std::optional<Progress> bar;
   if (opt.progress) {
@@ -320,85 +289,29 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   TrainResult res;
   res.run_dir = s.dir;
   RecentScores recent(10);
-  const std::string title = s.cfg.target() + (s.cfg.algo == "mtppo" ? " (multi-task PPO)" : " (PPO)");
+  const std::string title = s.cfg.target() + " (" + find_algorithm(s.cfg.algo).title + ")";
   res.last_return = NAN;
   res.last_success = NAN;
   double shown_return = NAN, shown_success = NAN;
 
-  auto upload = [&](bool with_final, int* k_out) {
-    std::memcpy(st, env.obs.data(), sizeof(float) * N * D);
-    float* rew = st + int64_t(N) * D;
-    float* done = rew + N;
-    float* ids = done + N;
-    int k = 0;
-    for (int i = 0; i < N; ++i) {
-      rew[i] = env.reward[i];
-      done[i] = (env.terminated[i] || env.truncated[i]) ? 1.f : 0.f;
-      if (with_final && env.truncated[i] && !env.fault[i]) ids[k++] = static_cast<float>(i);
-    }
-    float* fin = ids + k;
-    for (int j = 0; j < k; ++j)
-      std::memcpy(fin + int64_t(j) * D, env.final_obs.data() + int64_t(ids[j]) * D,
-                  sizeof(float) * D);
-    const int64_t used = int64_t(N) * D + 2 * N + k + int64_t(k) * D;
-    *k_out = k;
-    return cuda ? staging.narrow(0, 0, used).to(s.device, /*non_blocking=*/true)
-                : staging.narrow(0, 0, used).clone();
-  };
-
-  env.reset();
-  int k0 = 0;
-  torch::Tensor obs = upload(false, &k0).narrow(0, 0, int64_t(N) * D).view({N, D});
+  torch::Tensor obs = collector.reset();
   bool stopped = false;
   const double session_start = now();
   while (s.update < total_updates) {
     const double t_iter = now();
-    double sim_s = 0;
-    {
-      torch::NoGradGuard ng;
-      ro.log_std.copy_(s.model->log_std().detach());
-      const auto std_dev = torch::exp(ro.log_std);
-      for (int t = 0; t < T; ++t) {
-        if (s.cfg.ppo.obs_norm) s.model->obs_norm()->update(obs);
-        auto nobs = s.model->normalize_obs(obs);
-        auto mu = s.model->mean(nobs);
-        auto v = s.model->value(nobs);
-        auto a = mu + std_dev * torch::randn_like(mu);
-        ro.nobs[t].copy_(nobs);
-        ro.actions[t].copy_(a);
-        ro.mu[t].copy_(mu);
-        ro.values[t].copy_(v);
-        ro.logp[t].copy_(gaussian_log_prob(a, mu, ro.log_std));
-        auto host_a = a.to(torch::kCPU).contiguous();
-        const double t0 = now();
-        env.step(host_a.data_ptr<float>());
-        sim_s += now() - t0;
-        int k = 0;
-        auto dev = upload(true, &k);
-        obs = dev.narrow(0, 0, int64_t(N) * D).view({N, D});
-        auto rew = ro.rewards[t];
-        rew.copy_(dev.narrow(0, int64_t(N) * D, N));
-        ro.dones[t].copy_(dev.narrow(0, int64_t(N) * D + N, N));
-        if (k > 0) {  // time limits: bootstrap from the critic's value of the final observation
-          auto ids = dev.narrow(0, int64_t(N) * D + 2 * N, k).to(torch::kLong);
-          auto fin = dev.narrow(0, int64_t(N) * D + 2 * N + k, int64_t(k) * D).view({k, D});
-          rew.index_add_(0, ids, gamma * s.model->value(s.model->normalize_obs(fin)));
-        }
-        if (g_stop) break;
-      }
+    for (int t = 0; t < T && !g_stop; ++t) {
+      Transition tr = collector.step(algo.act(obs));
+      algo.observe(tr);
+      obs = tr.obs;
     }
+    const double sim_s = collector.take_sim_seconds();
     if (g_stop) {  // the interrupted rollout is dropped; the last full update is kept
       stopped = true;
       break;
     }
-    torch::Tensor last_value;
-    {
-      torch::NoGradGuard ng;
-      last_value = s.model->value(s.model->normalize_obs(obs));
-    }
-    UpdateStats us = s.ppo->update(ro, last_value);
+    const std::vector<double> algo_metrics = algo.update(obs);
     s.update += 1;
-    s.steps += s.cfg.batch();
+    s.steps += batch;
     const double iter = now() - t_iter;
     s.wall += iter;
     const std::vector<tasks::EpisodeStats> per = env.take_stats();
@@ -422,7 +335,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     }
     const double mean_return = with ? ret / with : NAN, mean_success = with ? succ / with : NAN;
     std::vector<double> row = {double(s.update), double(s.steps), s.wall,
-                               s.cfg.batch() / iter, s.cfg.batch() / std::max(sim_s, 1e-9), ep,
+                               batch / iter, batch / std::max(sim_s, 1e-9), ep,
                                mean_return, with ? len / with : NAN, mean_success};
     if (env.ngroups() == 1) {
       for (double t : per[0].term_sums) row.push_back(ep > 0 ? t / ep : NAN);
@@ -432,14 +345,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       for (auto& es : per)
         row.push_back(es.episodes ? static_cast<double>(es.successes) / es.episodes : NAN);
     }
-    double action_std = 0;
-    {
-      torch::NoGradGuard ng;
-      action_std = torch::exp(s.model->log_std()).mean().item<double>();
-    }
-    for (double x : {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
-                     action_std, double(faults)})
-      row.push_back(x);
+    row.insert(row.end(), algo_metrics.begin(), algo_metrics.end());
+    row.push_back(double(faults));
     log.append(row);
     if (with > 0) {
       shown_return = mean_return;
@@ -448,7 +355,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     if (s.update % s.cfg.plot_interval == 0) log.plot(title);
     if (s.update % s.cfg.save_interval == 0) s.save();
     if (bar) {
-      bar->set_status("fps " + fmt("%.0f", s.cfg.batch() / iter) + " return " +
+      bar->set_status("fps " + fmt("%.0f", batch / iter) + " return " +
                      fmt("%.3g", shown_return) + " success " + fmt("%.2f", shown_success));
       bar->update(std::min(s.steps, s.cfg.steps));
     }
@@ -544,7 +451,7 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
   write_file_atomic(run_dir + "/config.yaml", resolved_yaml);
   write_run_json(s, options, false);
   if (options.on_start) options.on_start(s.cfg, run_dir);
-  MetricsLog log(run_dir, metric_columns(*s.env));
+  MetricsLog log(run_dir, metric_columns(*s.env, *s.algo));
   return run_loop(s, log, options);
 }
 
@@ -565,7 +472,7 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
   s.last_checkpoint = cks.back();
   write_run_json(s, options, true);
   if (options.on_start) options.on_start(s.cfg, run_dir);
-  MetricsLog log = MetricsLog::resume(run_dir, metric_columns(*s.env), s.update);
+  MetricsLog log = MetricsLog::resume(run_dir, metric_columns(*s.env, *s.algo), s.update);
   return run_loop(s, log, options);
 }
 
@@ -573,7 +480,7 @@ struct LoadedPolicy::Impl {
   TrainConfig cfg;
   std::string checkpoint;
   CheckpointMeta meta;
-  ActorCritic model{nullptr};
+  std::unique_ptr<Algorithm> algo;
 };
 
 LoadedPolicy::LoadedPolicy(const std::string& run_dir, const std::string& checkpoint)
@@ -595,19 +502,13 @@ LoadedPolicy::LoadedPolicy(const std::string& run_dir, const std::string& checkp
   } else {  // a suite's widths are checked against its pack in evaluate
     check_meta(m, path, impl_->cfg.suite, 0, 0, "run " + run_dir);
   }
+  check_algo(m, path, impl_->cfg.algo, "run " + run_dir);
   impl_->meta = m;
-  impl_->model = ActorCritic(m.obs_dim, m.act_dim, impl_->cfg.ppo);
-  torch::serialize::InputArchive root, net;
-  load_checkpoint(path, root, torch::Device(torch::kCPU));
-  try {
-    root.read("model", net);
-  } catch (const c10::Error& e) {
-    std::string msg = e.what();
-    throw Error("checkpoint " + path + ": holds no networks (" + msg.substr(0, msg.find('\n')) +
-                ")");
-  }
-  load_module_checked(*impl_->model, net, path, "the networks of " + name);
-  impl_->model->eval();
+  const torch::Device cpu(torch::kCPU);
+  impl_->algo = make_algorithm(impl_->cfg.algo, impl_->cfg, m.obs_dim, m.act_dim, 0, cpu);
+  torch::serialize::InputArchive root;
+  load_checkpoint(path, root, cpu);
+  impl_->algo->load_actor(root, path);
 }
 
 LoadedPolicy::~LoadedPolicy() = default;
@@ -618,9 +519,8 @@ int64_t LoadedPolicy::act_dim() const { return impl_->meta.act_dim; }
 int64_t LoadedPolicy::update() const { return impl_->meta.update; }
 
 void LoadedPolicy::act(const float* obs, int n, float* actions) {
-  torch::NoGradGuard ng;
   auto o = torch::from_blob(const_cast<float*>(obs), {n, impl_->meta.obs_dim}, torch::kFloat32);
-  auto a = impl_->model->mean(impl_->model->normalize_obs(o)).clamp(-1.0, 1.0).contiguous();
+  auto a = impl_->algo->actor(o).contiguous();
   std::memcpy(actions, a.data_ptr<float>(), sizeof(float) * n * impl_->meta.act_dim);
 }
 

@@ -175,6 +175,20 @@ TEST_CASE("truncated, corrupted and foreign checkpoints are clear errors", "[rl]
     CHECK(msg.find("trained on task hand_over") != std::string::npos);
     CHECK(msg.find("is task catch_underarm_raise") != std::string::npos);
   }
+  SECTION("another algorithm's checkpoint") {
+    // the same task and shapes, its header naming another algorithm: refused before loading,
+    // for evaluation and for resuming alike
+    rl::CheckpointMeta m = rl::read_checkpoint_meta(ck);
+    m.algo = "sac";
+    torch::serialize::OutputArchive empty;
+    rl::save_checkpoint(ck, m, empty);
+    const std::string msg = error_of([&] { rl::LoadedPolicy p(a); });
+    CHECK(msg.find(ck) != std::string::npos);
+    CHECK(msg.find("holds the state of algorithm sac") != std::string::npos);
+    CHECK(msg.find("trains with ppo") != std::string::npos);
+    CHECK(error_of([&] { rl::train_resume(a, quiet()); }).find("algorithm sac") !=
+          std::string::npos);
+  }
   SECTION("a checkpoint whose networks differ from the run's config") {
     // same task, other hidden sizes
     const std::string c = tmp.file("c");

@@ -1,0 +1,56 @@
+// The algorithm registry: one line per algorithm.
+#include "rl/algorithms.h"
+
+#include "core/error.h"
+#include "rl/algorithm.h"
+#include "rl/ppo.h"
+
+namespace bidex::rl {
+
+namespace {
+
+using Make = std::unique_ptr<Algorithm> (*)(const TrainConfig&, int64_t, int64_t, int64_t,
+                                            const torch::Device&);
+struct Entry {
+  AlgorithmInfo info;
+  Make make;
+};
+
+const std::vector<Entry>& entries() {
+  static const std::vector<Entry> all = {
+      {{"ppo", "PPO", TrainsOn::kTask}, make_ppo},
+      // multi-task PPO: PPO on a multi-task suite's pack (one-hot task ids in the observation)
+      {{"mtppo", "multi-task PPO", TrainsOn::kSuite}, make_ppo},
+  };
+  return all;
+}
+
+const Entry& entry(const std::string& name) {
+  for (auto& e : entries())
+    if (e.info.name == name) return e;
+  throw ConfigError("", "algo", "a known algorithm (" + algorithm_names() + ")", "'" + name + "'");
+}
+
+}  // namespace
+
+std::vector<AlgorithmInfo> algorithm_registry() {
+  std::vector<AlgorithmInfo> out;
+  for (auto& e : entries()) out.push_back(e.info);
+  return out;
+}
+
+std::string algorithm_names() {
+  std::string s;
+  for (auto& e : entries()) s += (s.empty() ? "" : ", ") + e.info.name;
+  return s;
+}
+
+AlgorithmInfo find_algorithm(const std::string& name) { return entry(name).info; }
+
+std::unique_ptr<Algorithm> make_algorithm(const std::string& name, const TrainConfig& config,
+                                          int64_t obs_dim, int64_t act_dim, int64_t nslot,
+                                          const torch::Device& device) {
+  return entry(name).make(config, obs_dim, act_dim, nslot, device);
+}
+
+}  // namespace bidex::rl
