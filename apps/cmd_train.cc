@@ -185,8 +185,9 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--task", o->task, "Task id (see bidex info --task ID)");
   cmd->add_option("--suite", o->suite,
                   "Suite id (MT1, MT4, MT20; see configs/suites) or a suite YAML file");
-  cmd->add_option("--algo", o->algo, "Algorithm: ppo (a task, the default with --task) or "
-                                     "mtppo (a suite, the default with --suite)");
+  cmd->add_option("--algo", o->algo,
+                  "Algorithm (" + rl::algorithm_names() + "): ppo is the default with --task, "
+                  "mtppo with --suite");
   cmd->add_option("--config", o->config,
                   "Training defaults YAML (default: configs/train/<algo>.yaml)");
   cmd->add_option("--registry", o->registry,
@@ -207,8 +208,9 @@ void add_train_command(CLI::App& app) {
       ->check(CLI::PositiveNumber);
   cmd->footer(
       "Examples:\n"
-      "  bidex train --task catch_underarm_raise          # a small run, a few minutes on 2 cores\n"
+      "  bidex train --task catch_underarm_raise          # a small run, about 35 s on 2 cores\n"
       "  bidex train --task hand_over --algo ppo -o env.slots=64 -o train.steps=200000\n"
+      "  bidex train --task hand_over --algo trpo -o trpo.max_kl=0.05\n"
       "  bidex train --suite MT4 --algo mtppo -o env.slots=256\n"
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");

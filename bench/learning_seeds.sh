@@ -1,17 +1,18 @@
 #!/usr/bin/env bash
 # The margin of the CI learning test (tests/rl/learning_test.cc): PPO on catch_underarm_raise
 # with its per-task defaults for several seeds, each evaluated (mean action, 64 episodes) against
-# the random policy. Usage: bench/learning_seeds.sh OUT.json [BIDEX] [SEEDS...]
+# the random policy. Usage: [BIDEX_ALGO=trpo] bench/learning_seeds.sh OUT.json [BIDEX] [SEEDS...]
 set -euo pipefail
 out=$1; shift
 bidex=${1:-build/apps/bidex}; shift || true
 seeds=("$@"); [ ${#seeds[@]} -gt 0 ] || seeds=(0 1 2 3)
+algo=${BIDEX_ALGO:-ppo}
 tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
 rand=$("$bidex" play --task catch_underarm_raise --policy random --slots 64 --steps 40 --seed 777 --json "$tmp/random.json" >/dev/null && python3 -c "import json;print(json.load(open('$tmp/random.json'))['episodes']['mean_return'])")
 rows=""
 for s in "${seeds[@]}"; do
   start=$(date +%s.%N)
-  "$bidex" train --task catch_underarm_raise -o seed=$s --run "$tmp/s$s" >/dev/null 2>&1
+  "$bidex" train --task catch_underarm_raise --algo "$algo" -o seed=$s --run "$tmp/s$s" >/dev/null 2>&1
   end=$(date +%s.%N)
   "$bidex" eval --run "$tmp/s$s" --episodes 64 --seed 777 --json "$tmp/e$s.json" >/dev/null
   ret=$(python3 -c "import json;print(json.load(open('$tmp/e$s.json'))['mean_return'])")
@@ -19,11 +20,11 @@ for s in "${seeds[@]}"; do
 done
 cat > "$out" <<JSON
 {
-  "what": "CI learning test margin: PPO on catch_underarm_raise (configs/train/ppo.yaml per_task), eval of the mean action over 64 episodes (seed 777) vs random actions",
+  "what": "CI learning test margin: $algo on catch_underarm_raise (configs/train/$algo.yaml per_task), eval of the mean action over 64 episodes (seed 777) vs random actions",
   "machine": "$(nproc) cores, $(uname -m), $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)",
   "date": "$(date -u +%Y-%m-%dT%H:%M:%SZ)",
   "commit": "${BIDEX_COMMIT:-$(git rev-parse --short HEAD 2>/dev/null || echo unknown)}",
-  "command": "bench/learning_seeds.sh $out $bidex ${seeds[*]}",
+  "command": "BIDEX_ALGO=$algo bench/learning_seeds.sh $out $bidex ${seeds[*]}",
   "random_return": $rand,
   "seeds": [${rows%,}]
 }

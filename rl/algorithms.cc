@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "rl/algorithm.h"
 #include "rl/ppo.h"
+#include "rl/trpo.h"
 
 namespace bidex::rl {
 
@@ -18,9 +19,10 @@ struct Entry {
 
 const std::vector<Entry>& entries() {
   static const std::vector<Entry> all = {
-      {{"ppo", "PPO", TrainsOn::kTask}, make_ppo},
+      {{"ppo", "PPO", TrainsOn::kTask, "ppo"}, make_ppo},
       // multi-task PPO: PPO on a multi-task suite's pack (one-hot task ids in the observation)
-      {{"mtppo", "multi-task PPO", TrainsOn::kSuite}, make_ppo},
+      {{"mtppo", "multi-task PPO", TrainsOn::kSuite, "ppo"}, make_ppo},
+      {{"trpo", "TRPO", TrainsOn::kTask, "trpo"}, make_trpo},
   };
   return all;
 }

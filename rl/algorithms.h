@@ -15,6 +15,7 @@ struct AlgorithmInfo {
   std::string name;   // --algo NAME; its defaults are configs/train/NAME.yaml
   std::string title;  // in plots: "PPO", "multi-task PPO"
   TrainsOn trains_on = TrainsOn::kTask;
+  std::string section;  // its settings' section in the YAML ("ppo", "trpo")
 };
 
 // Every algorithm `bidex train` knows, in the order --help lists them.

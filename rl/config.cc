@@ -130,14 +130,15 @@ std::string resolve_train_yaml(const std::string& file, const std::string& algo,
 
 TrainConfig parse_train_config(const std::string& yaml_text, const std::string& name) {
   YamlView v = YamlView::load_string(yaml_text, name);
-  v.allow_keys({"task", "suite", "algo", "seed", "env", "train", "ppo"});
   TrainConfig c;
   c.algo = v.req<std::string>("algo");
+  AlgorithmInfo info;
   try {
-    find_algorithm(c.algo);
+    info = find_algorithm(c.algo);
   } catch (const ConfigError&) {
     v.child("algo").fail("a known algorithm (" + algorithm_names() + ")", c.algo);
   }
+  v.allow_keys({"task", "suite", "algo", "seed", "env", "train", info.section});
   // a task algorithm (ppo) trains on a task, a suite algorithm (mtppo) on a suite
   const bool suite_algo = takes_suite(c.algo);
   const char* want = suite_algo ? "suite" : "task";
@@ -201,11 +202,19 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     c.torch_threads = positive(t, "torch_threads", 0);
   }
   {
-    auto p = v.child("ppo");
-    p.allow_keys({"hidden", "activation", "init_std", "horizon", "epochs", "minibatches", "clip",
-                  "lr", "schedule", "desired_kl", "gamma", "lambda", "max_grad_norm",
-                  "entropy_coef", "value_coef", "clip_value_loss", "value_clip", "obs_norm",
-                  "value_norm"});
+    // the on-policy keys every section has, then PPO's surrogate or TRPO's step
+    const bool trpo = info.section == "trpo";
+    auto p = v.child(info.section);
+    std::vector<std::string> keys = {"hidden", "activation", "init_std", "horizon", "epochs",
+                                     "minibatches", "lr", "gamma", "lambda", "max_grad_norm",
+                                     "value_coef", "obs_norm", "value_norm"};
+    const std::vector<std::string> own =
+        trpo ? std::vector<std::string>{"max_kl", "damping", "cg_iters", "backtracks",
+                                        "accept_ratio", "step_fraction"}
+             : std::vector<std::string>{"clip", "schedule", "desired_kl", "entropy_coef",
+                                        "clip_value_loss", "value_clip"};
+    keys.insert(keys.end(), own.begin(), own.end());
+    p.allow_keys(keys);
     auto& o = c.ppo;
     {
       auto h = p.child("hidden");
@@ -222,24 +231,35 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     o.horizon = positive(p, "horizon", 1);
     o.epochs = positive(p, "epochs", 1);
     o.minibatches = positive(p, "minibatches", 1);
-    o.clip = real(p, "clip", 0, 1, true);
     o.lr = real(p, "lr", 0, 1, true);
-    o.schedule = choice(p, "schedule", {"adaptive", "fixed"});
-    o.desired_kl = real(p, "desired_kl", 0, 10, true);
     o.gamma = real(p, "gamma", 0, 1, false);
     o.lambda = real(p, "lambda", 0, 1, false);
     o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
-    o.entropy_coef = real(p, "entropy_coef", 0, 1e3, false);
     o.value_coef = real(p, "value_coef", 0, 1e3, false);
-    o.clip_value_loss = p.req<bool>("clip_value_loss");
-    o.value_clip = real(p, "value_clip", 0, 1e3, true);
     o.obs_norm = p.req<bool>("obs_norm");
     o.value_norm = p.req<bool>("value_norm");
+    if (trpo) {
+      auto& t = c.trpo;
+      t.max_kl = real(p, "max_kl", 0, 10, true);
+      t.damping = real(p, "damping", 0, 1e3, false);
+      t.cg_iters = positive(p, "cg_iters", 1);
+      t.backtracks = positive(p, "backtracks", 1);
+      t.accept_ratio = real(p, "accept_ratio", 0, 1, false);
+      t.step_fraction = real(p, "step_fraction", 0, 1, true);
+      o.schedule = "fixed";  // the critic's Adam
+    } else {
+      o.clip = real(p, "clip", 0, 1, true);
+      o.schedule = choice(p, "schedule", {"adaptive", "fixed"});
+      o.desired_kl = real(p, "desired_kl", 0, 10, true);
+      o.entropy_coef = real(p, "entropy_coef", 0, 1e3, false);
+      o.clip_value_loss = p.req<bool>("clip_value_loss");
+      o.value_clip = real(p, "value_clip", 0, 1e3, true);
+    }
   }
   if (c.batch() < c.ppo.minibatches) {
     std::string actual = std::to_string(c.batch());
-    throw ConfigError(name, "ppo.minibatches",
-                      "at most env.slots x ppo.horizon (" + actual + ") minibatches",
+    throw ConfigError(name, info.section + ".minibatches",
+                      "at most env.slots x " + info.section + ".horizon (" + actual + ") minibatches",
                       std::to_string(c.ppo.minibatches));
   }
   return c;

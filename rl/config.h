@@ -10,6 +10,9 @@
 
 namespace bidex::rl {
 
+// The on-policy actor-critic settings: the networks, the rollout and the critic, and PPO's
+// surrogate (the `ppo:` section; TRPO's `trpo:` section fills the same fields but PPO's own, and
+// TrpoConfig).
 struct PpoConfig {
   std::vector<int> hidden{1024, 1024, 512};
   std::string activation = "elu";
@@ -32,6 +35,16 @@ struct PpoConfig {
   bool value_norm = false;
 };
 
+// TRPO's natural-gradient step (the `trpo:` section, with the fields of PpoConfig it shares).
+struct TrpoConfig {
+  double max_kl = 0.1;        // the KL bound of one policy step
+  double damping = 0.1;       // added to the Fisher matrix's diagonal in conjugate gradient
+  int cg_iters = 3;           // conjugate gradient iterations
+  int backtracks = 10;        // line-search trials, each halving the step
+  double accept_ratio = 0.01; // least improvement accepted, as a share of the predicted one
+  double step_fraction = 1.0; // the first trial's share of the full natural step
+};
+
 struct TrainConfig {
   std::string algo = "ppo";
   std::string task;               // a task run: the task id (suite empty)
@@ -46,7 +59,8 @@ struct TrainConfig {
   int plot_interval = 10;
   std::string device = "auto";
   int torch_threads = 0;
-  PpoConfig ppo;
+  PpoConfig ppo;    // the on-policy settings (ppo, mtppo, trpo)
+  TrpoConfig trpo;  // trpo only
 
   // slot-steps per update
   int64_t batch() const { return int64_t(slots) * ppo.horizon; }

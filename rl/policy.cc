@@ -99,6 +99,12 @@ torch::Tensor ActorCriticImpl::normalize_obs(const torch::Tensor& obs) const {
 
 torch::Tensor ActorCriticImpl::mean(const torch::Tensor& nobs) { return actor_->forward(nobs); }
 
+std::vector<torch::Tensor> ActorCriticImpl::actor_parameters() const {
+  auto p = actor_->parameters();
+  p.push_back(log_std_);
+  return p;
+}
+
 torch::Tensor ActorCriticImpl::raw_value(const torch::Tensor& nobs) {
   return critic_->forward(nobs).squeeze(-1);
 }

@@ -48,6 +48,9 @@ class ActorCriticImpl : public torch::nn::Module {
   // The critic's raw output (normalised units when value_norm is on).
   torch::Tensor raw_value(const torch::Tensor& nobs);
   torch::Tensor log_std() const { return log_std_; }
+  // The policy's parameters (the mean network and the log-std) and the critic's, apart.
+  std::vector<torch::Tensor> actor_parameters() const;
+  std::vector<torch::Tensor> critic_parameters() const { return critic_->parameters(); }
 
   RunningNorm& obs_norm() { return obs_norm_; }
   RunningNorm& value_norm() { return value_norm_; }

@@ -4,6 +4,7 @@
 
 #include "core/error.h"
 #include "rl/checkpoint.h"
+#include "rl/onpolicy.h"
 
 namespace bidex::rl {
 
@@ -139,63 +140,19 @@ namespace bidex::rl {
 
 namespace {
 
-class PpoAlgorithm final : public Algorithm {
+class PpoAlgorithm final : public GaussianOnPolicy {
  public:
   PpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
                const torch::Device& device)
-      : c_(config.ppo), model_(D, A, config.ppo) {
-    model_->to(device);
+      : GaussianOnPolicy(config.ppo, D, A, N, device) {
     ppo_ = std::make_unique<Ppo>(model_, c_);
-    ro_ = std::make_unique<Rollout>(c_.horizon, N, D, A, device);
-  }
-
-  int steps_per_update() const override { return c_.horizon; }
-
-  torch::Tensor act(const torch::Tensor& obs) override {
-    torch::NoGradGuard ng;
-    if (t_ == 0) {  // the rollout's Gaussian keeps the log-std it started with
-      ro_->log_std.copy_(model_->log_std().detach());
-      std_ = torch::exp(ro_->log_std);
-    }
-    if (c_.obs_norm) model_->obs_norm()->update(obs);
-    auto nobs = model_->normalize_obs(obs);
-    auto mu = model_->mean(nobs);
-    auto v = model_->value(nobs);
-    auto a = mu + std_ * torch::randn_like(mu);
-    ro_->nobs[t_].copy_(nobs);
-    ro_->actions[t_].copy_(a);
-    ro_->mu[t_].copy_(mu);
-    ro_->values[t_].copy_(v);
-    ro_->logp[t_].copy_(gaussian_log_prob(a, mu, ro_->log_std));
-    return a;
-  }
-
-  void observe(const Transition& t) override {
-    torch::NoGradGuard ng;
-    auto rew = ro_->rewards[t_];
-    rew.copy_(t.reward);
-    ro_->dones[t_].copy_(t.done);
-    // time limits: bootstrap from the critic's value of the final observation
-    if (t.final_ids.numel() > 0)
-      rew.index_add_(0, t.final_ids, c_.gamma * model_->value(model_->normalize_obs(t.final_obs)));
-    t_ += 1;
   }
 
   std::vector<double> update(const torch::Tensor& obs) override {
-    torch::Tensor last_value;
-    {
-      torch::NoGradGuard ng;
-      last_value = model_->value(model_->normalize_obs(obs));
-    }
+    const torch::Tensor last_value = finish_rollout(obs);
     const UpdateStats us = ppo_->update(*ro_, last_value);
-    t_ = 0;
-    double action_std = 0;
-    {
-      torch::NoGradGuard ng;
-      action_std = torch::exp(model_->log_std()).mean().item<double>();
-    }
     return {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
-            action_std};
+            action_std()};
   }
 
   const std::vector<std::string>& metric_names() const override {
@@ -230,30 +187,8 @@ class PpoAlgorithm final : public Algorithm {
     }
   }
 
-  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
-    torch::serialize::InputArchive net;
-    try {
-      root.read("model", net);
-    } catch (const c10::Error& e) {
-      const std::string msg = e.what();
-      throw Error("checkpoint " + path + ": holds no networks (" + msg.substr(0, msg.find('\n')) +
-                  ")");
-    }
-    load_module_checked(*model_, net, path, "this run's networks");
-  }
-
-  torch::Tensor actor(const torch::Tensor& obs) override {
-    torch::NoGradGuard ng;
-    return model_->mean(model_->normalize_obs(obs)).clamp(-1.0, 1.0);
-  }
-
  private:
-  PpoConfig c_;
-  ActorCritic model_;
   std::unique_ptr<Ppo> ppo_;
-  std::unique_ptr<Rollout> ro_;
-  torch::Tensor std_;
-  int64_t t_ = 0;  // the rollout step the next act() fills
 };
 
 }  // namespace

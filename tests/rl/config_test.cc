@@ -110,3 +110,38 @@ TEST_CASE("an unknown key in a training YAML file names the file", "[rl][config]
     CHECK(std::string(e.what()).find("ppo.epoch") != std::string::npos);
   }
 }
+
+TEST_CASE("TRPO defaults are the paper's table, in a trpo section of their own", "[rl][config]") {
+  auto trpo = [](const std::string& task, const std::vector<std::string>& o = {}) {
+    return rl::parse_train_config(
+        rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", task, o), "resolved");
+  };
+  const auto c = trpo("hand_over");
+  CHECK(c.algo == "trpo");
+  CHECK(c.ppo.hidden == std::vector<int>{1024, 1024, 512});
+  CHECK(c.ppo.horizon == 8);
+  CHECK(c.ppo.epochs == 5);
+  CHECK(c.ppo.minibatches == 4);
+  CHECK(c.ppo.lr == 1e-3);
+  CHECK(c.ppo.gamma == 0.99);
+  CHECK(c.ppo.lambda == 0.95);
+  CHECK(c.ppo.init_std == 0.8);
+  CHECK(c.ppo.max_grad_norm == 10.0);
+  CHECK(c.trpo.damping == 0.1);
+  CHECK(c.trpo.cg_iters == 3);
+  CHECK(c.trpo.max_kl == 0.1);
+  CHECK(c.trpo.backtracks == 10);
+  CHECK(c.trpo.accept_ratio == 0.01);
+  CHECK(c.trpo.step_fraction == 1.0);
+  // the paper's lift column
+  CHECK(trpo("lift_underarm").ppo.horizon == 20);
+  CHECK(trpo("lift_underarm").ppo.epochs == 10);
+  CHECK(trpo("hand_over", {"trpo.max_kl=0.02"}).trpo.max_kl == 0.02);
+  // PPO's own keys are not TRPO's, and the ppo section is not there
+  require_config_error([&] { trpo("hand_over", {"trpo.clip=0.1"}); }, "trpo.clip", "a known key",
+                       "clip");
+  require_config_error([&] { trpo("hand_over", {"ppo.lr=0.1"}); }, "ppo", "a known key", "ppo");
+  require_config_error([&] { trpo("hand_over", {"trpo.max_kl=0"}); }, "trpo.max_kl", "(0", "0");
+  require_config_error([&] { trpo("hand_over", {"trpo.cg_iters=0"}); }, "trpo.cg_iters", ">= 1",
+                       "0");
+}

@@ -37,4 +37,14 @@ inline std::string tiny_yaml(const std::string& task, std::vector<std::string> e
   return rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", task, o);
 }
 
+// The same for TRPO (its own `trpo:` section).
+inline std::string tiny_trpo_yaml(const std::string& task, std::vector<std::string> extra = {}) {
+  std::vector<std::string> o = {"env.slots=4",       "env.threads=1",        "train.steps=64",
+                                "trpo.hidden=[32]",  "trpo.horizon=8",       "trpo.minibatches=2",
+                                "trpo.epochs=2",     "train.save_interval=1", "train.device=cpu",
+                                "train.torch_threads=1"};
+  for (auto& e : extra) o.push_back(e);
+  return rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", task, o);
+}
+
 }  // namespace bidex::test

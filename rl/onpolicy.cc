@@ -1,0 +1,73 @@
+#include "rl/onpolicy.h"
+
+#include "core/error.h"
+#include "rl/checkpoint.h"
+
+namespace bidex::rl {
+
+GaussianOnPolicy::GaussianOnPolicy(const PpoConfig& config, int64_t D, int64_t A, int64_t N,
+                                   const torch::Device& device)
+    : c_(config), model_(D, A, config) {
+  model_->to(device);
+  ro_ = std::make_unique<Rollout>(c_.horizon, N, D, A, device);
+}
+
+torch::Tensor GaussianOnPolicy::act(const torch::Tensor& obs) {
+  torch::NoGradGuard ng;
+  if (t_ == 0) {  // the rollout's Gaussian keeps the log-std it started with
+    ro_->log_std.copy_(model_->log_std().detach());
+    std_ = torch::exp(ro_->log_std);
+  }
+  if (c_.obs_norm) model_->obs_norm()->update(obs);
+  auto nobs = model_->normalize_obs(obs);
+  auto mu = model_->mean(nobs);
+  auto v = model_->value(nobs);
+  auto a = mu + std_ * torch::randn_like(mu);
+  ro_->nobs[t_].copy_(nobs);
+  ro_->actions[t_].copy_(a);
+  ro_->mu[t_].copy_(mu);
+  ro_->values[t_].copy_(v);
+  ro_->logp[t_].copy_(gaussian_log_prob(a, mu, ro_->log_std));
+  return a;
+}
+
+void GaussianOnPolicy::observe(const Transition& t) {
+  torch::NoGradGuard ng;
+  auto rew = ro_->rewards[t_];
+  rew.copy_(t.reward);
+  ro_->dones[t_].copy_(t.done);
+  // time limits: bootstrap from the critic's value of the final observation
+  if (t.final_ids.numel() > 0)
+    rew.index_add_(0, t.final_ids, c_.gamma * model_->value(model_->normalize_obs(t.final_obs)));
+  t_ += 1;
+}
+
+torch::Tensor GaussianOnPolicy::finish_rollout(const torch::Tensor& obs) {
+  torch::NoGradGuard ng;
+  t_ = 0;
+  return model_->value(model_->normalize_obs(obs));
+}
+
+double GaussianOnPolicy::action_std() const {
+  torch::NoGradGuard ng;
+  return torch::exp(model_->log_std()).mean().item<double>();
+}
+
+void GaussianOnPolicy::load_actor(torch::serialize::InputArchive& root, const std::string& path) {
+  torch::serialize::InputArchive net;
+  try {
+    root.read("model", net);
+  } catch (const c10::Error& e) {
+    const std::string msg = e.what();
+    throw Error("checkpoint " + path + ": holds no networks (" + msg.substr(0, msg.find('\n')) +
+                ")");
+  }
+  load_module_checked(*model_, net, path, "this run's networks");
+}
+
+torch::Tensor GaussianOnPolicy::actor(const torch::Tensor& obs) {
+  torch::NoGradGuard ng;
+  return model_->mean(model_->normalize_obs(obs)).clamp(-1.0, 1.0);
+}
+
+}  // namespace bidex::rl

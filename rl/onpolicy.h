@@ -1,0 +1,41 @@
+// The part of every on-policy Gaussian actor-critic algorithm (PPO, TRPO) that is not its
+// update: acting with a sampled Gaussian action, recording the rollout (observations as the
+// policy saw them, actions, log-probabilities, means, values), bootstrapping time-limited
+// episodes from the critic, and the deterministic actor. Subclasses write update() and their
+// checkpoint state.
+#pragma once
+
+#include <memory>
+
+#include "rl/algorithm.h"
+#include "rl/policy.h"
+#include "rl/ppo.h"
+
+namespace bidex::rl {
+
+class GaussianOnPolicy : public Algorithm {
+ public:
+  GaussianOnPolicy(const PpoConfig& config, int64_t obs_dim, int64_t act_dim, int64_t nslot,
+                   const torch::Device& device);
+
+  int steps_per_update() const override { return c_.horizon; }
+  torch::Tensor act(const torch::Tensor& obs) override;
+  void observe(const Transition& t) override;
+  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override;
+  torch::Tensor actor(const torch::Tensor& obs) override;
+
+ protected:
+  // V(obs after the rollout), and afterwards: the next act() starts a new rollout
+  torch::Tensor finish_rollout(const torch::Tensor& obs);
+  double action_std() const;
+
+  PpoConfig c_;
+  ActorCritic model_;
+  std::unique_ptr<Rollout> ro_;
+
+ private:
+  torch::Tensor std_;
+  int64_t t_ = 0;  // the rollout step the next act() fills
+};
+
+}  // namespace bidex::rl

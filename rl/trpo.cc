@@ -1,0 +1,196 @@
+#include "rl/trpo.h"
+
+#include <cmath>
+
+#include "core/error.h"
+#include "rl/checkpoint.h"
+#include "rl/onpolicy.h"
+
+namespace bidex::rl {
+
+torch::Tensor conjugate_gradient(const std::function<torch::Tensor(const torch::Tensor&)>& Avp,
+                                 const torch::Tensor& b, int iters, double tol) {
+  // the product may need autograd (TRPO's Fisher-vector product): only its result is detached
+  auto x = torch::zeros_like(b);
+  auto r = b.detach().clone();
+  auto p = r.clone();
+  double rr = (r * r).sum().item<double>();
+  for (int i = 0; i < iters && rr >= tol; ++i) {
+    auto Ap = Avp(p).detach();
+    const double alpha = rr / (p * Ap).sum().item<double>();
+    x += alpha * p;
+    r -= alpha * Ap;
+    const double rr_new = (r * r).sum().item<double>();
+    p = r + (rr_new / rr) * p;
+    rr = rr_new;
+  }
+  return x;
+}
+
+LineSearch backtracking_line_search(const std::function<double(const torch::Tensor&)>& loss,
+                                    const std::function<double(const torch::Tensor&)>& kl,
+                                    const torch::Tensor& x0, const torch::Tensor& full_step,
+                                    double expected, double max_kl, int backtracks,
+                                    double accept_ratio) {
+  const double loss0 = loss(x0);
+  double fraction = 1.0;
+  for (int k = 0; k < backtracks; ++k, fraction *= 0.5) {
+    auto x = x0 + fraction * full_step;
+    const double improvement = loss0 - loss(x);
+    if (kl(x) <= max_kl && improvement > 0 && improvement > accept_ratio * fraction * expected)
+      return {true, fraction, x, improvement};
+  }
+  return {false, 0.0, x0, 0.0};
+}
+
+namespace {
+
+torch::Tensor flat(const std::vector<torch::Tensor>& ts) {
+  std::vector<torch::Tensor> parts;
+  for (auto& t : ts) parts.push_back(t.reshape({-1}));
+  return torch::cat(parts);
+}
+
+void assign(const std::vector<torch::Tensor>& params, const torch::Tensor& x) {
+  torch::NoGradGuard ng;
+  int64_t at = 0;
+  for (auto& p : params) {
+    const int64_t n = p.numel();
+    p.copy_(x.narrow(0, at, n).view_as(p));
+    at += n;
+  }
+}
+
+class TrpoAlgorithm final : public GaussianOnPolicy {
+ public:
+  TrpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
+                const torch::Device& device)
+      : GaussianOnPolicy(config.ppo, D, A, N, device), t_(config.trpo) {
+    critic_opt_ = std::make_unique<torch::optim::Adam>(model_->critic_parameters(),
+                                                       torch::optim::AdamOptions(c_.lr));
+  }
+
+  std::vector<double> update(const torch::Tensor& obs) override {
+    const torch::Tensor last_value = finish_rollout(obs);
+    const Rollout& r = *ro_;
+    auto [adv, ret] = gae(r.rewards, r.values, r.dones, last_value, c_.gamma, c_.lambda);
+    const int64_t B = r.horizon * r.nslot;
+    const auto nobs = r.nobs.reshape({B, -1});
+    const auto actions = r.actions.reshape({B, -1});
+    const auto logp_old = r.logp.reshape({B});
+    const auto mu_old = r.mu.reshape({B, -1});
+    const auto log_std_old = r.log_std.detach();
+    auto advantages = adv.reshape({B});
+    advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
+
+    // the policy: one natural-gradient step within the KL bound
+    const auto params = model_->actor_parameters();
+    auto surrogate = [&] {  // to minimise
+      auto logp = gaussian_log_prob(actions, model_->mean(nobs), model_->log_std());
+      return -(torch::exp(logp - logp_old) * advantages).mean();
+    };
+    auto mean_kl = [&] {
+      return gaussian_kl(mu_old, log_std_old, model_->mean(nobs), model_->log_std()).mean();
+    };
+    const auto loss = surrogate();
+    const double policy_loss = loss.item<double>();
+    const auto g = flat(torch::autograd::grad({loss}, params));
+    auto fisher = [&](const torch::Tensor& v) {
+      const auto kl = mean_kl();
+      const auto dkl = flat(torch::autograd::grad({kl}, params, {}, true, true));
+      const auto hv = flat(torch::autograd::grad({(dkl * v).sum()}, params));
+      return hv + t_.damping * v;
+    };
+    const auto x = conjugate_gradient(fisher, -g, t_.cg_iters);
+    double taken = 0, kl_after = 0;
+    const double shs = 0.5 * (x * fisher(x)).sum().item<double>();
+    if (shs > 0 && std::isfinite(shs)) {
+      const auto full_step = t_.step_fraction * std::sqrt(t_.max_kl / shs) * x;
+      const double expected = -(g * full_step).sum().item<double>();
+      const auto x0 = flat(params).detach();
+      torch::NoGradGuard ng;
+      auto loss_at = [&](const torch::Tensor& p) {
+        assign(params, p);
+        return surrogate().item<double>();
+      };
+      auto kl_at = [&](const torch::Tensor& p) {
+        assign(params, p);
+        return mean_kl().item<double>();
+      };
+      const LineSearch ls = backtracking_line_search(loss_at, kl_at, x0, full_step, expected,
+                                                     t_.max_kl, t_.backtracks, t_.accept_ratio);
+      assign(params, ls.params);
+      taken = ls.fraction;
+      kl_after = mean_kl().item<double>();
+    }
+
+    // the critic: Adam on the returns
+    torch::Tensor targets = ret.reshape({B});
+    if (model_->uses_value_norm()) {
+      model_->value_norm()->update(targets.unsqueeze(1));
+      torch::NoGradGuard ng;
+      targets = model_->value_norm()->normalize(targets.unsqueeze(1)).squeeze(1);
+    }
+    const int64_t mb = B / c_.minibatches;
+    auto value_sum = torch::zeros({}, torch::TensorOptions().dtype(torch::kFloat64).device(nobs.device()));
+    int n = 0;
+    for (int epoch = 0; epoch < c_.epochs; ++epoch) {
+      auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(nobs.device()));
+      for (int k = 0; k < c_.minibatches; ++k) {
+        auto idx = perm.narrow(0, k * mb, mb);
+        auto value_loss = (model_->raw_value(nobs.index_select(0, idx)) -
+                           targets.index_select(0, idx)).pow(2).mean();
+        critic_opt_->zero_grad();
+        (c_.value_coef * value_loss).backward();
+        torch::nn::utils::clip_grad_norm_(model_->critic_parameters(), c_.max_grad_norm);
+        critic_opt_->step();
+        value_sum += value_loss.detach().to(torch::kFloat64);
+        ++n;
+      }
+    }
+    const double entropy = gaussian_entropy(model_->log_std()).item<double>();
+    return {policy_loss, (value_sum / std::max(n, 1)).item<double>(), entropy, kl_after, taken,
+            action_std()};
+  }
+
+  const std::vector<std::string>& metric_names() const override {
+    static const std::vector<std::string> names = {"policy_loss", "value_loss", "entropy",
+                                                   "kl",          "step_fraction", "action_std"};
+    return names;
+  }
+
+  void save(torch::serialize::OutputArchive& root) override {
+    torch::serialize::OutputArchive net, opt;
+    model_->save(net);
+    critic_opt_->save(opt);
+    root.write("model", net);
+    root.write("critic_optimizer", opt);
+  }
+
+  void load(torch::serialize::InputArchive& root, const std::string& path) override {
+    torch::serialize::InputArchive net, opt;
+    try {
+      root.read("model", net);
+      root.read("critic_optimizer", opt);
+      load_module_checked(*model_, net, path, "this run's networks");
+      critic_opt_->load(opt);
+    } catch (const c10::Error& e) {
+      const std::string msg = e.what();
+      throw Error("checkpoint " + path + ": does not fit this run's networks (" +
+                  msg.substr(0, msg.find('\n')) + ")");
+    }
+  }
+
+ private:
+  TrpoConfig t_;
+  std::unique_ptr<torch::optim::Adam> critic_opt_;
+};
+
+}  // namespace
+
+std::unique_ptr<Algorithm> make_trpo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                     int64_t nslot, const torch::Device& device) {
+  return std::make_unique<TrpoAlgorithm>(config, obs_dim, act_dim, nslot, device);
+}
+
+}  // namespace bidex::rl

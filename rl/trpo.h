@@ -1,0 +1,41 @@
+// TRPO (Schulman et al. 2015) on the on-policy rollout of PPO: the policy takes one natural-
+// gradient step per update, its direction from conjugate gradient on the Fisher matrix (the
+// Hessian of the mean KL between the rollout's policy and the new one, damped), its length from
+// the KL bound, then a backtracking line search that keeps the KL bound and a real improvement
+// of the surrogate; the critic learns by Adam on the returns (epochs x minibatches).
+#pragma once
+
+#include <functional>
+#include <memory>
+
+#include <torch/torch.h>
+
+#include "rl/algorithm.h"
+
+namespace bidex::rl {
+
+// Solves A x = b for a symmetric positive definite A given as its product with a vector:
+// `iters` conjugate gradient iterations from x = 0, stopping early once the residual's squared
+// norm falls below `tol`.
+torch::Tensor conjugate_gradient(const std::function<torch::Tensor(const torch::Tensor&)>& Avp,
+                                 const torch::Tensor& b, int iters, double tol = 1e-10);
+
+struct LineSearch {
+  bool accepted = false;
+  double fraction = 0;     // of the full step taken (0 when none was accepted)
+  torch::Tensor params;    // x0 + fraction * full_step, or x0
+  double improvement = 0;  // loss(x0) - loss(params)
+};
+// TRPO's backtracking line search: tries x0 + 0.5^k full_step for k = 0 .. backtracks - 1 and
+// takes the first whose kl() is within max_kl and whose loss() decreased by more than
+// accept_ratio times the decrease the linear model predicts (0.5^k `expected`).
+LineSearch backtracking_line_search(const std::function<double(const torch::Tensor&)>& loss,
+                                    const std::function<double(const torch::Tensor&)>& kl,
+                                    const torch::Tensor& x0, const torch::Tensor& full_step,
+                                    double expected, double max_kl, int backtracks,
+                                    double accept_ratio);
+
+std::unique_ptr<Algorithm> make_trpo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                     int64_t nslot, const torch::Device& device);
+
+}  // namespace bidex::rl
