@@ -23,6 +23,8 @@ const std::vector<Entry>& entries() {
       // multi-task PPO: PPO on a multi-task suite's pack (one-hot task ids in the observation)
       {{"mtppo", "multi-task PPO", TrainsOn::kSuite, "ppo"}, make_ppo},
       {{"trpo", "TRPO", TrainsOn::kTask, "trpo"}, make_trpo},
+      // multi-task TRPO: TRPO on a multi-task suite's pack
+      {{"mttrpo", "multi-task TRPO", TrainsOn::kSuite, "trpo"}, make_trpo},
   };
   return all;
 }

@@ -191,3 +191,29 @@ TEST_CASE("bidex train and eval reject suite mistakes with clear messages", "[rl
   CHECK(rs.rc == 0);
   CHECK(rs.out.find("two_catch_underarm") != std::string::npos);
 }
+
+TEST_CASE("mttrpo trains TRPO on a suite's pack and evaluates per task", "[rl][mtppo][trpo]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("mt4-trpo");
+  std::vector<std::string> o = {"env.slots=8",        "env.threads=1",         "train.steps=128",
+                                "trpo.hidden=[32]",   "trpo.horizon=8",        "trpo.minibatches=2",
+                                "trpo.epochs=1",      "train.save_interval=1", "train.device=cpu",
+                                "train.torch_threads=1"};
+  const std::string yaml =
+      rl::resolve_train_yaml(rl::default_train_config("mttrpo"), "mttrpo", "MT4", o);
+  CHECK(yaml.find("suite: MT4") != std::string::npos);
+  auto r = rl::train_new(yaml, dir, quiet());
+  CHECK(r.updates == 2);
+  const auto m = rl::read_checkpoint_meta(rl::list_checkpoints(dir).back());
+  CHECK(m.algo == "mttrpo");
+  CHECK(m.obs_dim == 446 + 4);
+  // a return column per task, the scaled mean, and TRPO's own metrics
+  const auto cols = header(dir);
+  CHECK(std::count_if(cols.begin(), cols.end(),
+                      [](const std::string& c) { return c.rfind("return_", 0) == 0; }) == 4);
+  for (const char* c : {"scaled_return", "step_fraction", "kl"})
+    CHECK(std::count(cols.begin(), cols.end(), c) == 1);
+  rl::LoadedPolicy p(dir);
+  const auto e = rl::evaluate(p, 2, 4, 1);
+  CHECK(e.per_task.size() == 4);
+}
