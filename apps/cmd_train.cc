@@ -211,6 +211,7 @@ void add_train_command(CLI::App& app) {
       "  bidex train --task catch_underarm_raise          # a small run, about 35 s on 2 cores\n"
       "  bidex train --task hand_over --algo ppo -o env.slots=64 -o train.steps=200000\n"
       "  bidex train --task hand_over --algo trpo -o trpo.max_kl=0.05\n"
+      "  bidex train --task hand_over --algo sac -o env.slots=64 -o sac.batch_size=256\n"
       "  bidex train --suite MT4 --algo mtppo -o env.slots=256\n"
       "  bidex train --suite MT4 --algo mttrpo -o env.slots=256\n"
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
@@ -241,20 +242,20 @@ void add_train_command(CLI::App& app) {
         const bool on_suite = rl::find_algorithm(algo).trains_on == rl::TrainsOn::kSuite;
         if (on_suite && o->suite.empty())
           throw Error("train: --algo " + algo + " trains on a suite: give --suite (MT1, MT4, MT20)");
-        std::string suite_algos;  // mtppo, mttrpo
+        std::string suite_algos;  // "--algo mtppo or --algo mttrpo"
         for (auto& a : rl::algorithm_registry())
           if (a.trains_on == rl::TrainsOn::kSuite)
-            suite_algos += (suite_algos.empty() ? "" : ", ") + a.name;
+            suite_algos += (suite_algos.empty() ? "--algo " : " or --algo ") + a.name;
         if (!on_suite && o->task.empty())
-          throw Error("train: --algo " + algo + " trains on one task: give --task, or use a "
-                      "suite algorithm (" + suite_algos + ") for a suite");
+          throw Error("train: --algo " + algo + " trains on one task: give --task, or use " +
+                      suite_algos + " for a suite");
         if (!o->task.empty()) tasks::find_task(o->task);  // unknown id: lists the known ones
         if (!o->suite.empty()) {
           const taskpack::Suite su = taskpack::load_suite(o->suite);  // unknown: lists them
           if (su.mode != taskpack::PackMode::kMultiTask)
             throw Error("train: suite " + o->suite + " is a meta-learning suite (goal slices "
-                        "masked, no task id); the multi-task algorithms (" + suite_algos +
-                        ") train the multi-task suites (MT1, MT4, MT20)");
+                        "masked, no task id); " + suite_algos +
+                        " train the multi-task suites (MT1, MT4, MT20)");
         }
         const std::string file = o->config.empty() ? rl::default_train_config(algo) : o->config;
         const std::string target = o->suite.empty() ? o->task : o->suite;

@@ -4,6 +4,7 @@
 #include "core/error.h"
 #include "rl/algorithm.h"
 #include "rl/ppo.h"
+#include "rl/sac.h"
 #include "rl/trpo.h"
 
 namespace bidex::rl {
@@ -25,6 +26,7 @@ const std::vector<Entry>& entries() {
       {{"trpo", "TRPO", TrainsOn::kTask, "trpo"}, make_trpo},
       // multi-task TRPO: TRPO on a multi-task suite's pack
       {{"mttrpo", "multi-task TRPO", TrainsOn::kSuite, "trpo"}, make_trpo},
+      {{"sac", "SAC", TrainsOn::kTask, "sac"}, make_sac},
   };
   return all;
 }

@@ -170,6 +170,16 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     }
     return x;
   };
+  auto widths = [](const YamlView& h) {
+    std::vector<int> out;
+    for (auto& item : h.items()) {
+      const int x = item.as<int>();
+      if (x < 1) item.fail("a layer width >= 1", item.repr());
+      out.push_back(x);
+    }
+    if (out.empty()) h.fail("at least one hidden layer", "[]");
+    return out;
+  };
   auto choice = [](const YamlView& p, const char* key, const std::vector<std::string>& allowed) {
     auto n = p.child(key);
     const std::string x = n.as<std::string>();
@@ -201,6 +211,31 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     c.device = choice(t, "device", {"auto", "cpu", "cuda"});
     c.torch_threads = positive(t, "torch_threads", 0);
   }
+  if (info.section == "sac") {
+    auto p = v.child("sac");
+    p.allow_keys({"hidden", "activation", "horizon", "minibatches", "batch_size", "replay_size",
+                  "lr", "gamma", "polyak", "init_alpha", "learn_alpha", "max_grad_norm",
+                  "reward_scale"});
+    auto& o = c.sac;
+    o.hidden = widths(p.child("hidden"));
+    o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
+    o.horizon = positive(p, "horizon", 1);
+    o.minibatches = positive(p, "minibatches", 1);
+    o.batch_size = positive(p, "batch_size", 1);
+    o.replay_size = positive(p, "replay_size", 1);
+    o.lr = real(p, "lr", 0, 1, true);
+    o.gamma = real(p, "gamma", 0, 1, false);
+    o.polyak = real(p, "polyak", 0, 1, false);
+    o.init_alpha = real(p, "init_alpha", 0, 1e3, true);
+    o.learn_alpha = p.req<bool>("learn_alpha");
+    o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
+    o.reward_scale = real(p, "reward_scale", 0, 1e6, true);
+    if (o.replay_size < c.slots)
+      p.child("replay_size").fail("at least env.slots (" + std::to_string(c.slots) +
+                                  ") transitions, one step of every slot",
+                                  std::to_string(o.replay_size));
+    return c;
+  }
   {
     // the on-policy keys every section has, then PPO's surrogate or TRPO's step
     const bool trpo = info.section == "trpo";
@@ -216,16 +251,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     keys.insert(keys.end(), own.begin(), own.end());
     p.allow_keys(keys);
     auto& o = c.ppo;
-    {
-      auto h = p.child("hidden");
-      o.hidden.clear();
-      for (auto& item : h.items()) {
-        const int x = item.as<int>();
-        if (x < 1) item.fail("a layer width >= 1", item.repr());
-        o.hidden.push_back(x);
-      }
-      if (o.hidden.empty()) h.fail("at least one hidden layer", "[]");
-    }
+    o.hidden = widths(p.child("hidden"));
     o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
     o.init_std = real(p, "init_std", 0, 10, true);
     o.horizon = positive(p, "horizon", 1);

@@ -45,6 +45,23 @@ struct TrpoConfig {
   double step_fraction = 1.0; // the first trial's share of the full natural step
 };
 
+// SAC (the `sac:` section): the paper's SAC table.
+struct SacConfig {
+  std::vector<int> hidden{1024, 1024, 1024};  // actor and each of the two critics
+  std::string activation = "elu";
+  int horizon = 8;            // control steps of every slot between updates
+  int minibatches = 4;        // gradient steps per update
+  int batch_size = 32;        // transitions per gradient step
+  int64_t replay_size = 5000; // transitions the replay buffer keeps
+  double lr = 3e-4;           // Adam, actor, critics and temperature
+  double gamma = 0.96;
+  double polyak = 0.99;       // target critics: polyak x target + (1 - polyak) x critic
+  double init_alpha = 0.2;    // the entropy temperature at the start
+  bool learn_alpha = true;    // learn it towards the target entropy -act_dim
+  double max_grad_norm = 1.0;
+  double reward_scale = 1.0;
+};
+
 struct TrainConfig {
   std::string algo = "ppo";
   std::string task;               // a task run: the task id (suite empty)
@@ -61,6 +78,7 @@ struct TrainConfig {
   int torch_threads = 0;
   PpoConfig ppo;    // the on-policy settings (ppo, mtppo, trpo)
   TrpoConfig trpo;  // trpo only
+  SacConfig sac;    // sac only
 
   // slot-steps per update
   int64_t batch() const { return int64_t(slots) * ppo.horizon; }

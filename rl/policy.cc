@@ -54,8 +54,6 @@ torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_
       .sum(-1);
 }
 
-namespace {
-
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
                           const std::string& activation, double out_gain) {
   torch::nn::Sequential net;
@@ -76,8 +74,6 @@ torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t ou
   net->push_back(last);
   return net;
 }
-
-}  // namespace
 
 ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& c)
     : obs_dim_(obs_dim),

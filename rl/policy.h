@@ -36,6 +36,11 @@ torch::Tensor gaussian_entropy(const torch::Tensor& log_std);
 torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_std_old,
                           const torch::Tensor& mu_new, const torch::Tensor& log_std_new);
 
+// A multilayer perceptron: `hidden` layers of `activation` (elu, relu or tanh), orthogonal
+// weights with gain sqrt 2 and `out_gain` for the output layer, zero biases.
+torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
+                          const std::string& activation, double out_gain);
+
 class ActorCriticImpl : public torch::nn::Module {
  public:
   ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& config);

@@ -1,0 +1,246 @@
+#include "rl/sac.h"
+
+#include <cmath>
+
+#include "core/error.h"
+#include "rl/checkpoint.h"
+#include "rl/policy.h"
+#include "rl/replay.h"
+
+namespace bidex::rl {
+
+torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
+                           const torch::Tensor& q1_next, const torch::Tensor& q2_next,
+                           const torch::Tensor& logp_next, double alpha, double gamma) {
+  return reward + gamma * (1 - terminal) * (torch::min(q1_next, q2_next) - alpha * logp_next);
+}
+
+torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor& logp,
+                             double target_entropy) {
+  return -(log_alpha * (logp + target_entropy).detach()).mean();
+}
+
+torch::Tensor tanh_gaussian_log_prob(const torch::Tensor& u, const torch::Tensor& mean,
+                                     const torch::Tensor& log_std) {
+  // log(1 - tanh(u)^2) = 2 (log 2 - u - softplus(-2u)), stable for large |u|
+  const auto log_det = 2 * (std::log(2.0) - u - torch::nn::functional::softplus(-2 * u));
+  return gaussian_log_prob(u, mean, log_std) - log_det.sum(-1);
+}
+
+namespace {
+
+constexpr double kLogStdMin = -20, kLogStdMax = 2;
+
+// The actor: one network giving the mean and log-std of the pre-squash Gaussian.
+struct SacActorImpl : torch::nn::Module {
+  SacActorImpl(int64_t D, int64_t A, const SacConfig& c) : act_dim(A) {
+    net = register_module("net", mlp(D, c.hidden, 2 * A, c.activation, 0.01));
+  }
+  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs) {
+    auto out = net->forward(obs);
+    return {out.narrow(1, 0, act_dim), out.narrow(1, act_dim, act_dim).clamp(kLogStdMin, kLogStdMax)};
+  }
+  // a sampled (reparameterised) action in (-1, 1) and its log-probability
+  std::pair<torch::Tensor, torch::Tensor> sample(const torch::Tensor& obs) {
+    auto [mu, log_std] = forward(obs);
+    auto u = mu + torch::exp(log_std) * torch::randn_like(mu);
+    return {torch::tanh(u), tanh_gaussian_log_prob(u, mu, log_std)};
+  }
+  int64_t act_dim;
+  torch::nn::Sequential net{nullptr};
+};
+TORCH_MODULE(SacActor);
+
+struct SacCriticImpl : torch::nn::Module {
+  SacCriticImpl(int64_t D, int64_t A, const SacConfig& c) {
+    q1 = register_module("q1", mlp(D + A, c.hidden, 1, c.activation, 1.0));
+    q2 = register_module("q2", mlp(D + A, c.hidden, 1, c.activation, 1.0));
+  }
+  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs, const torch::Tensor& a) {
+    auto x = torch::cat({obs, a}, 1);
+    return {q1->forward(x).squeeze(1), q2->forward(x).squeeze(1)};
+  }
+  torch::nn::Sequential q1{nullptr}, q2{nullptr};
+};
+TORCH_MODULE(SacCritic);
+
+class SacAlgorithm final : public Algorithm {
+ public:
+  SacAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
+               const torch::Device& device)
+      : c_(config.sac),
+        actor_(D, A, config.sac),
+        critic_(D, A, config.sac),
+        target_(D, A, config.sac),
+        target_entropy_(-static_cast<double>(A)) {
+    actor_->to(device);
+    critic_->to(device);
+    target_->to(device);
+    copy_params(*critic_, *target_, 0.0);
+    for (auto& p : target_->parameters()) p.set_requires_grad(false);
+    log_alpha_ = torch::full({1}, std::log(c_.init_alpha),
+                             torch::TensorOptions().dtype(torch::kFloat32).device(device))
+                     .set_requires_grad(true);
+    actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
+                                                      torch::optim::AdamOptions(c_.lr));
+    critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),
+                                                       torch::optim::AdamOptions(c_.lr));
+    alpha_opt_ = std::make_unique<torch::optim::Adam>(std::vector<torch::Tensor>{log_alpha_},
+                                                      torch::optim::AdamOptions(c_.lr));
+    if (N > 0) replay_ = std::make_unique<ReplayBuffer>(c_.replay_size, D, A, device);
+  }
+
+  int steps_per_update() const override { return c_.horizon; }
+
+  torch::Tensor act(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    last_obs_ = obs;
+    last_act_ = actor_->sample(obs).first;
+    return last_act_;
+  }
+
+  void observe(const Transition& t) override {
+    Transition scaled = t;
+    scaled.reward = t.reward * c_.reward_scale;
+    replay_->add(last_obs_, last_act_, scaled);
+  }
+
+  std::vector<double> update(const torch::Tensor&) override {
+    auto sums = torch::zeros({6}, torch::TensorOptions().dtype(torch::kFloat64).device(log_alpha_.device()));
+    for (int k = 0; k < c_.minibatches; ++k) {
+      const auto b = replay_->sample(c_.batch_size);
+      const double alpha = std::exp(log_alpha_.item<double>());
+      // critics
+      torch::Tensor target;
+      {
+        torch::NoGradGuard ng;
+        auto [a_next, logp_next] = actor_->sample(b.next_obs);
+        auto [q1n, q2n] = target_->forward(b.next_obs, a_next);
+        target = sac_q_target(b.rewards, b.terminal, q1n, q2n, logp_next, alpha, c_.gamma);
+      }
+      auto [q1, q2] = critic_->forward(b.obs, b.actions);
+      auto q_loss = 0.5 * ((q1 - target).pow(2).mean() + (q2 - target).pow(2).mean());
+      critic_opt_->zero_grad();
+      q_loss.backward();
+      torch::nn::utils::clip_grad_norm_(critic_->parameters(), c_.max_grad_norm);
+      critic_opt_->step();
+      // actor
+      auto [a_new, logp] = actor_->sample(b.obs);
+      auto [q1p, q2p] = critic_->forward(b.obs, a_new);
+      auto actor_loss = (alpha * logp - torch::min(q1p, q2p)).mean();
+      actor_opt_->zero_grad();
+      actor_loss.backward();
+      torch::nn::utils::clip_grad_norm_(actor_->parameters(), c_.max_grad_norm);
+      actor_opt_->step();
+      // temperature
+      auto alpha_loss = sac_alpha_loss(log_alpha_, logp, target_entropy_);
+      if (c_.learn_alpha) {
+        alpha_opt_->zero_grad();
+        alpha_loss.backward();
+        alpha_opt_->step();
+      }
+      copy_params(*critic_, *target_, c_.polyak);
+      torch::NoGradGuard ng;
+      sums += torch::stack({q_loss.detach(), actor_loss.detach(), alpha_loss.detach(),
+                            -logp.detach().mean(), q1.detach().mean(),
+                            torch::exp(log_alpha_.detach()).squeeze()})
+                  .to(torch::kFloat64);
+    }
+    auto m = (sums / c_.minibatches).to(torch::kCPU);
+    return {m[0].item<double>(), m[1].item<double>(), m[2].item<double>(), m[3].item<double>(),
+            m[4].item<double>(), m[5].item<double>()};
+  }
+
+  const std::vector<std::string>& metric_names() const override {
+    static const std::vector<std::string> names = {"q_loss",  "actor_loss", "alpha_loss",
+                                                   "entropy", "q_mean",     "alpha"};
+    return names;
+  }
+
+  void save(torch::serialize::OutputArchive& root) override {
+    torch::serialize::OutputArchive a, q, t, ao, qo, lo;
+    actor_->save(a);
+    critic_->save(q);
+    target_->save(t);
+    actor_opt_->save(ao);
+    critic_opt_->save(qo);
+    alpha_opt_->save(lo);
+    root.write("actor", a);
+    root.write("critic", q);
+    root.write("target", t);
+    root.write("actor_optimizer", ao);
+    root.write("critic_optimizer", qo);
+    root.write("alpha_optimizer", lo);
+    root.write("log_alpha", log_alpha_.detach());
+  }
+
+  void load(torch::serialize::InputArchive& root, const std::string& path) override {
+    try {
+      torch::serialize::InputArchive a, q, t, ao, qo, lo;
+      root.read("actor", a);
+      root.read("critic", q);
+      root.read("target", t);
+      load_module_checked(*actor_, a, path, "this run's actor");
+      load_module_checked(*critic_, q, path, "this run's critics");
+      load_module_checked(*target_, t, path, "this run's target critics");
+      root.read("actor_optimizer", ao);
+      root.read("critic_optimizer", qo);
+      root.read("alpha_optimizer", lo);
+      actor_opt_->load(ao);
+      critic_opt_->load(qo);
+      alpha_opt_->load(lo);
+      torch::Tensor la;
+      root.read("log_alpha", la);
+      torch::NoGradGuard ng;
+      log_alpha_.copy_(la);
+    } catch (const c10::Error& e) {
+      const std::string msg = e.what();
+      throw Error("checkpoint " + path + ": does not fit this run's networks (" +
+                  msg.substr(0, msg.find('\n')) + ")");
+    }
+  }
+
+  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
+    torch::serialize::InputArchive a;
+    try {
+      root.read("actor", a);
+    } catch (const c10::Error& e) {
+      const std::string msg = e.what();
+      throw Error("checkpoint " + path + ": holds no actor (" + msg.substr(0, msg.find('\n')) +
+                  ")");
+    }
+    load_module_checked(*actor_, a, path, "this run's actor");
+  }
+
+  torch::Tensor actor(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    return torch::tanh(actor_->forward(obs).first);
+  }
+
+ private:
+  // dst = keep x dst + (1 - keep) x src, parameter by parameter
+  static void copy_params(torch::nn::Module& src, torch::nn::Module& dst, double keep) {
+    torch::NoGradGuard ng;
+    auto s = src.parameters();
+    auto d = dst.parameters();
+    for (size_t i = 0; i < s.size(); ++i) d[i].mul_(keep).add_(s[i], 1.0 - keep);
+  }
+
+  SacConfig c_;
+  SacActor actor_;
+  SacCritic critic_, target_;
+  torch::Tensor log_alpha_;
+  double target_entropy_;
+  std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_, alpha_opt_;
+  std::unique_ptr<ReplayBuffer> replay_;
+  torch::Tensor last_obs_, last_act_;
+};
+
+}  // namespace
+
+std::unique_ptr<Algorithm> make_sac(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                    int64_t nslot, const torch::Device& device) {
+  return std::make_unique<SacAlgorithm>(config, obs_dim, act_dim, nslot, device);
+}
+
+}  // namespace bidex::rl

@@ -1,0 +1,32 @@
+// SAC (Haarnoja et al. 2018) on the learning core: a tanh-squashed Gaussian actor with a
+// state-dependent std, two critics with Polyak-averaged targets, an entropy temperature learned
+// towards the target entropy -act_dim, and the ReplayBuffer. Each update follows `horizon` steps
+// of every slot (their transitions added to the buffer) with `minibatches` gradient steps on
+// `batch_size` sampled transitions. The pieces below are the losses' formulas, for tests.
+#pragma once
+
+#include <memory>
+
+#include <torch/torch.h>
+
+#include "rl/algorithm.h"
+
+namespace bidex::rl {
+
+// The critics' target: r + gamma (1 - terminal) (min(q1', q2') - alpha log pi(a'|s')).
+torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
+                           const torch::Tensor& q1_next, const torch::Tensor& q2_next,
+                           const torch::Tensor& logp_next, double alpha, double gamma);
+// The temperature's loss: -mean(log_alpha (log pi(a|s) + target_entropy)), its gradient pushing
+// the policy's entropy -E[log pi] towards target_entropy.
+torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor& logp,
+                             double target_entropy);
+// log pi(tanh(u)) of a tanh-squashed Gaussian at the pre-squash sample u, per row: the
+// Gaussian's log-density of u minus sum log(1 - tanh(u)^2), the change of variables.
+torch::Tensor tanh_gaussian_log_prob(const torch::Tensor& u, const torch::Tensor& mean,
+                                     const torch::Tensor& log_std);
+
+std::unique_ptr<Algorithm> make_sac(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                    int64_t nslot, const torch::Device& device);
+
+}  // namespace bidex::rl
