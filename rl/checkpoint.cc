@@ -158,4 +158,14 @@ void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& a
   }
 }
 
+void read_checked(const std::string& path, const std::string& problem,
+                  const std::function<void()>& read) {
+  try {
+    read();
+  } catch (const c10::Error& e) {
+    const std::string msg = e.what();
+    throw Error("checkpoint " + path + ": " + problem + " (" + msg.substr(0, msg.find('\n')) + ")");
+  }
+}
+
 }  // namespace bidex::rl

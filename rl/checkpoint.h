@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -42,5 +43,10 @@ std::vector<std::string> list_checkpoints(const std::string& run_dir);
 // naming `path`, the tensor, both shapes and `what` (e.g. "this run's networks").
 void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& archive,
                          const std::string& path, const std::string& what);
+
+// Runs `read` (an algorithm reading its state from a loaded archive) and turns LibTorch's errors
+// into an Error naming `path`: "checkpoint PATH: <problem> (<LibTorch's first line>)".
+void read_checked(const std::string& path, const std::string& problem,
+                  const std::function<void()>& read);
 
 }  // namespace bidex::rl

@@ -17,7 +17,8 @@ Collector::Collector(taskpack::TaskPack& env, const torch::Device& device)
     : env_(env), device_(device) {
   const int64_t N = env.nslot(), D = env.obs_dim();
   auto host = torch::TensorOptions().dtype(torch::kFloat32).pinned_memory(device.is_cuda());
-  // one transfer per step: [obs N*D | reward N | done N | bootstrap slot ids K | their final obs K*D]
+  // one transfer per step:
+  // [obs N*D | reward N | done N | bootstrap slot ids K | their final obs K*D]
   staging_ = torch::empty({2 * N * D + 3 * N}, host);
 }
 

@@ -1,6 +1,5 @@
 #include "rl/onpolicy.h"
 
-#include "core/error.h"
 #include "rl/checkpoint.h"
 
 namespace bidex::rl {
@@ -55,13 +54,7 @@ double GaussianOnPolicy::action_std() const {
 
 void GaussianOnPolicy::load_actor(torch::serialize::InputArchive& root, const std::string& path) {
   torch::serialize::InputArchive net;
-  try {
-    root.read("model", net);
-  } catch (const c10::Error& e) {
-    const std::string msg = e.what();
-    throw Error("checkpoint " + path + ": holds no networks (" + msg.substr(0, msg.find('\n')) +
-                ")");
-  }
+  read_checked(path, "holds no networks", [&] { root.read("model", net); });
   load_module_checked(*model_, net, path, "this run's networks");
 }
 

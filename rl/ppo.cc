@@ -2,7 +2,6 @@
 
 #include <algorithm>
 
-#include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/onpolicy.h"
 
@@ -171,8 +170,8 @@ class PpoAlgorithm final : public GaussianOnPolicy {
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
-    torch::serialize::InputArchive net, opt;
-    try {
+    read_checked(path, "does not fit this run's networks", [&] {
+      torch::serialize::InputArchive net, opt;
       root.read("model", net);
       root.read("optimizer", opt);
       load_module_checked(*model_, net, path, "this run's networks");
@@ -180,11 +179,7 @@ class PpoAlgorithm final : public GaussianOnPolicy {
       torch::Tensor lr;
       root.read("lr", lr);
       ppo_->set_lr(lr.item<double>());
-    } catch (const c10::Error& e) {
-      const std::string msg = e.what();
-      throw Error("checkpoint " + path + ": does not fit this run's networks (" +
-                  msg.substr(0, msg.find('\n')) + ")");
-    }
+    });
   }
 
  private:

@@ -37,7 +37,8 @@ void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions,
   size_ = std::min(capacity_, size_ + n);
 }
 
-void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions, const Transition& t) {
+void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions,
+                       const Transition& t) {
   torch::NoGradGuard ng;
   auto next_obs = t.obs;
   auto terminal = t.done;

@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-#include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
@@ -38,7 +37,8 @@ struct SacActorImpl : torch::nn::Module {
   }
   std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs) {
     auto out = net->forward(obs);
-    return {out.narrow(1, 0, act_dim), out.narrow(1, act_dim, act_dim).clamp(kLogStdMin, kLogStdMax)};
+    return {out.narrow(1, 0, act_dim),
+            out.narrow(1, act_dim, act_dim).clamp(kLogStdMin, kLogStdMax)};
   }
   // a sampled (reparameterised) action in (-1, 1) and its log-probability
   std::pair<torch::Tensor, torch::Tensor> sample(const torch::Tensor& obs) {
@@ -56,7 +56,8 @@ struct SacCriticImpl : torch::nn::Module {
     q1 = register_module("q1", mlp(D + A, c.hidden, 1, c.activation, 1.0));
     q2 = register_module("q2", mlp(D + A, c.hidden, 1, c.activation, 1.0));
   }
-  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs, const torch::Tensor& a) {
+  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
+                                                  const torch::Tensor& a) {
     auto x = torch::cat({obs, a}, 1);
     return {q1->forward(x).squeeze(1), q2->forward(x).squeeze(1)};
   }
@@ -106,7 +107,8 @@ class SacAlgorithm final : public Algorithm {
   }
 
   std::vector<double> update(const torch::Tensor&) override {
-    auto sums = torch::zeros({6}, torch::TensorOptions().dtype(torch::kFloat64).device(log_alpha_.device()));
+    auto sums = torch::zeros(
+        {6}, torch::TensorOptions().dtype(torch::kFloat64).device(log_alpha_.device()));
     for (int k = 0; k < c_.minibatches; ++k) {
       const auto b = replay_->sample(c_.batch_size);
       const double alpha = std::exp(log_alpha_.item<double>());
@@ -175,7 +177,7 @@ class SacAlgorithm final : public Algorithm {
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
-    try {
+    read_checked(path, "does not fit this run's networks", [&] {
       torch::serialize::InputArchive a, q, t, ao, qo, lo;
       root.read("actor", a);
       root.read("critic", q);
@@ -193,22 +195,12 @@ class SacAlgorithm final : public Algorithm {
       root.read("log_alpha", la);
       torch::NoGradGuard ng;
       log_alpha_.copy_(la);
-    } catch (const c10::Error& e) {
-      const std::string msg = e.what();
-      throw Error("checkpoint " + path + ": does not fit this run's networks (" +
-                  msg.substr(0, msg.find('\n')) + ")");
-    }
+    });
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
     torch::serialize::InputArchive a;
-    try {
-      root.read("actor", a);
-    } catch (const c10::Error& e) {
-      const std::string msg = e.what();
-      throw Error("checkpoint " + path + ": holds no actor (" + msg.substr(0, msg.find('\n')) +
-                  ")");
-    }
+    read_checked(path, "holds no actor", [&] { root.read("actor", a); });
     load_module_checked(*actor_, a, path, "this run's actor");
   }
 

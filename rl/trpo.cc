@@ -2,7 +2,6 @@
 
 #include <cmath>
 
-#include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/onpolicy.h"
 
@@ -132,10 +131,11 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
       targets = model_->value_norm()->normalize(targets.unsqueeze(1)).squeeze(1);
     }
     const int64_t mb = B / c_.minibatches;
-    auto value_sum = torch::zeros({}, torch::TensorOptions().dtype(torch::kFloat64).device(nobs.device()));
+    const auto on = torch::TensorOptions().device(nobs.device());
+    auto value_sum = torch::zeros({}, on.dtype(torch::kFloat64));
     int n = 0;
     for (int epoch = 0; epoch < c_.epochs; ++epoch) {
-      auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(nobs.device()));
+      auto perm = torch::randperm(B, on.dtype(torch::kLong));
       for (int k = 0; k < c_.minibatches; ++k) {
         auto idx = perm.narrow(0, k * mb, mb);
         auto value_loss = (model_->raw_value(nobs.index_select(0, idx)) -
@@ -168,17 +168,13 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
-    torch::serialize::InputArchive net, opt;
-    try {
+    read_checked(path, "does not fit this run's networks", [&] {
+      torch::serialize::InputArchive net, opt;
       root.read("model", net);
       root.read("critic_optimizer", opt);
       load_module_checked(*model_, net, path, "this run's networks");
       critic_opt_->load(opt);
-    } catch (const c10::Error& e) {
-      const std::string msg = e.what();
-      throw Error("checkpoint " + path + ": does not fit this run's networks (" +
-                  msg.substr(0, msg.find('\n')) + ")");
-    }
+    });
   }
 
  private:

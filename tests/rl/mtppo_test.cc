@@ -14,20 +14,12 @@
 using namespace bidex;
 
 namespace {
-rl::TrainOptions quiet() {
-  rl::TrainOptions o;
-  o.progress = false;
-  return o;
-}
 
 // A tiny multi-task run on a suite: 2 slots per task, small networks.
 std::string tiny_suite_yaml(const std::string& suite, std::vector<std::string> extra = {}) {
-  std::vector<std::string> o = {"env.slots=8",       "env.threads=1",         "train.steps=64",
-                                "ppo.hidden=[32]",   "ppo.horizon=8",         "ppo.minibatches=2",
-                                "ppo.epochs=1",      "train.save_interval=1", "train.device=cpu",
-                                "train.torch_threads=1"};
+  std::vector<std::string> o = {"env.slots=8", "ppo.epochs=1"};
   for (auto& e : extra) o.push_back(e);
-  return rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", suite, o);
+  return test::tiny_onpolicy_yaml("mtppo", suite, o);
 }
 
 std::vector<std::string> header(const std::string& dir) {
@@ -45,7 +37,7 @@ TEST_CASE("mtppo trains on a suite's pack with per-task metrics and a one-hot ob
   const std::string yaml = tiny_suite_yaml("MT4", {"train.steps=640"});  // 10 updates of 64
   CHECK(yaml.find("suite: MT4") != std::string::npos);
   CHECK(yaml.find("task:") == std::string::npos);  // a suite run names no task
-  auto r = rl::train_new(yaml, dir, quiet());
+  auto r = rl::train_new(yaml, dir, test::quiet());
   CHECK(r.updates == 10);
   // the pack of MT4: four tasks, two slots each, observations padded to the widest (446, two
   // objects) plus a 4-wide one-hot
@@ -83,7 +75,7 @@ TEST_CASE("mtppo trains on a suite's pack with per-task metrics and a one-hot ob
   CHECK(ev.mean_return == Approx(mean));
 
   // resume continues the suite run
-  auto r2 = rl::train_resume(dir, quiet());
+  auto r2 = rl::train_resume(dir, test::quiet());
   CHECK(r2.updates == 10);  // already at its configured steps: nothing more to do
 }
 
@@ -195,14 +187,10 @@ TEST_CASE("bidex train and eval reject suite mistakes with clear messages", "[rl
 TEST_CASE("mttrpo trains TRPO on a suite's pack and evaluates per task", "[rl][mtppo][trpo]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("mt4-trpo");
-  std::vector<std::string> o = {"env.slots=8",        "env.threads=1",         "train.steps=128",
-                                "trpo.hidden=[32]",   "trpo.horizon=8",        "trpo.minibatches=2",
-                                "trpo.epochs=1",      "train.save_interval=1", "train.device=cpu",
-                                "train.torch_threads=1"};
-  const std::string yaml =
-      rl::resolve_train_yaml(rl::default_train_config("mttrpo"), "mttrpo", "MT4", o);
+  const std::string yaml = test::tiny_onpolicy_yaml(
+      "mttrpo", "MT4", {"env.slots=8", "trpo.epochs=1", "train.steps=128"});
   CHECK(yaml.find("suite: MT4") != std::string::npos);
-  auto r = rl::train_new(yaml, dir, quiet());
+  auto r = rl::train_new(yaml, dir, test::quiet());
   CHECK(r.updates == 2);
   const auto m = rl::read_checkpoint_meta(rl::list_checkpoints(dir).back());
   CHECK(m.algo == "mttrpo");

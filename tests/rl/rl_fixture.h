@@ -16,7 +16,9 @@
 #include <catch2/catch.hpp>
 
 #include "core/files.h"
+#include "rl/algorithms.h"
 #include "rl/config.h"
+#include "rl/trainer.h"
 #include "tests/run_command.h"
 #include "tests/tasks/task_fixture.h"
 
@@ -27,24 +29,29 @@ inline bool file_exists(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0;
 }
 
-// A tiny PPO configuration on a real task (networks of 32, few slots, 2 updates by default).
-inline std::string tiny_yaml(const std::string& task, std::vector<std::string> extra = {}) {
-  std::vector<std::string> o = {"env.slots=4",       "env.threads=1",        "train.steps=64",
-                                "ppo.hidden=[32]",   "ppo.horizon=8",        "ppo.minibatches=2",
-                                "ppo.epochs=2",      "train.save_interval=1", "train.device=cpu",
+// A tiny on-policy configuration (ppo, mtppo, trpo, mttrpo) on a real task or suite: networks
+// of 32, few slots, 2 updates by default; `extra` overrides come last and win.
+inline std::string tiny_onpolicy_yaml(const std::string& algo, const std::string& target,
+                                      std::vector<std::string> extra = {}) {
+  const std::string s = rl::find_algorithm(algo).section;
+  std::vector<std::string> o = {"env.slots=4",     "env.threads=1",         "train.steps=64",
+                                s + ".hidden=[32]", s + ".horizon=8",         s + ".minibatches=2",
+                                s + ".epochs=2",   "train.save_interval=1", "train.device=cpu",
                                 "train.torch_threads=1"};
   for (auto& e : extra) o.push_back(e);
-  return rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", task, o);
+  return rl::resolve_train_yaml(rl::default_train_config(algo), algo, target, o);
 }
 
-// The same for TRPO (its own `trpo:` section).
-inline std::string tiny_trpo_yaml(const std::string& task, std::vector<std::string> extra = {}) {
-  std::vector<std::string> o = {"env.slots=4",       "env.threads=1",        "train.steps=64",
-                                "trpo.hidden=[32]",  "trpo.horizon=8",       "trpo.minibatches=2",
-                                "trpo.epochs=2",     "train.save_interval=1", "train.device=cpu",
-                                "train.torch_threads=1"};
-  for (auto& e : extra) o.push_back(e);
-  return rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", task, o);
+// The same for PPO on a task.
+inline std::string tiny_yaml(const std::string& task, std::vector<std::string> extra = {}) {
+  return tiny_onpolicy_yaml("ppo", task, std::move(extra));
+}
+
+// Training options of tests: no progress bar.
+inline rl::TrainOptions quiet() {
+  rl::TrainOptions o;
+  o.progress = false;
+  return o;
 }
 
 }  // namespace bidex::test

@@ -48,13 +48,6 @@ TEST_CASE("the squashed Gaussian's density is the Gaussian's with the change of 
   CHECK(std::isfinite(tail[0].item<double>()));
 }
 
-namespace {
-rl::TrainOptions quiet() {
-  rl::TrainOptions o;
-  o.progress = false;
-  return o;
-}
-}  // namespace
 
 TEST_CASE("a SAC run stops, resumes from its checkpoint and evaluates", "[rl][sac]") {
   test::TaskTempDir tmp;
@@ -65,12 +58,12 @@ TEST_CASE("a SAC run stops, resumes from its checkpoint and evaluates", "[rl][sa
       "train.save_interval=1", "train.device=cpu", "train.torch_threads=1"};
   const std::string yaml =
       rl::resolve_train_yaml(rl::default_train_config("sac"), "sac", "catch_underarm_raise", o);
-  auto opt = quiet();
+  auto opt = test::quiet();
   opt.stop_after_updates = 1;
   auto r = rl::train_new(yaml, dir, opt);
   CHECK(r.updates == 1);
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).algo == "sac");
-  r = rl::train_resume(dir, quiet());
+  r = rl::train_resume(dir, test::quiet());
   CHECK(r.updates == 2);
   const std::string csv = read_file(dir + "/metrics.csv");
   for (const char* c : {"q_loss", "actor_loss", "alpha_loss", "entropy", "q_mean", "alpha"})

@@ -17,11 +17,6 @@
 using namespace bidex;
 
 namespace {
-rl::TrainOptions quiet() {
-  rl::TrainOptions o;
-  o.progress = false;
-  return o;
-}
 
 std::vector<double> metric(const std::string& dir, const std::string& col) {
   std::vector<std::string> cols;
@@ -51,7 +46,7 @@ TEST_CASE("a training run writes its config, metrics, curve and checkpoints", "[
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
   const std::string yaml = test::tiny_yaml("hand_over", {"train.steps=96"});
-  auto r = rl::train_new(yaml, dir, quiet());
+  auto r = rl::train_new(yaml, dir, test::quiet());
   CHECK(r.updates == 3);
   CHECK(r.steps == 96);
   CHECK_FALSE(r.interrupted);
@@ -86,7 +81,7 @@ TEST_CASE("episode returns and success reach the metrics once episodes end", "[r
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
   // catch_underarm_raise: 40-step episodes, 8 steps per update: episodes end in update 5
-  rl::train_new(test::tiny_yaml("catch_underarm_raise", {"train.steps=192"}), dir, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise", {"train.steps=192"}), dir, test::quiet());
   const auto ret = metric(dir, "return"), eps = metric(dir, "episodes");
   REQUIRE(ret.size() == 6);
   CHECK(std::isnan(ret[0]));
@@ -101,7 +96,7 @@ TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken 
           "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
-  auto o = quiet();
+  auto o = test::quiet();
   o.stop_after_updates = 2;
   auto r1 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), dir, o);
   CHECK(r1.interrupted);
@@ -116,7 +111,7 @@ TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken 
     std::fputs((row + "\n").c_str(), f);
     std::fclose(f);
   }
-  auto r2 = rl::train_resume(dir, quiet());
+  auto r2 = rl::train_resume(dir, test::quiet());
   CHECK_FALSE(r2.interrupted);
   CHECK(r2.updates == 4);
   CHECK(r2.steps == 128);
@@ -124,17 +119,17 @@ TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken 
   CHECK(test::file_exists(dir + "/metrics.after_update_2.csv"));
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == 4);
   // a finished run resumes to nothing new
-  auto r3 = rl::train_resume(dir, quiet());
+  auto r3 = rl::train_resume(dir, test::quiet());
   CHECK(r3.updates == 4);
 }
 
 TEST_CASE("an existing run folder is never overwritten by a new run", "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
-  rl::train_new(test::tiny_yaml("hand_over"), dir, quiet());
+  rl::train_new(test::tiny_yaml("hand_over"), dir, test::quiet());
   const std::string before = read_file(dir + "/metrics.csv");
   const std::string msg =
-      error_of([&] { rl::train_new(test::tiny_yaml("hand_over"), dir, quiet()); });
+      error_of([&] { rl::train_new(test::tiny_yaml("hand_over"), dir, test::quiet()); });
   CHECK(msg.find("exists and is not empty") != std::string::npos);
   CHECK(msg.find("--resume") != std::string::npos);
   CHECK(read_file(dir + "/metrics.csv") == before);
@@ -143,8 +138,8 @@ TEST_CASE("an existing run folder is never overwritten by a new run", "[rl][trai
 TEST_CASE("truncated, corrupted and foreign checkpoints are clear errors", "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string a = tmp.file("a"), b = tmp.file("b");
-  rl::train_new(test::tiny_yaml("hand_over"), a, quiet());
-  rl::train_new(test::tiny_yaml("catch_underarm_raise"), b, quiet());
+  rl::train_new(test::tiny_yaml("hand_over"), a, test::quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), b, test::quiet());
   const std::string ck = rl::list_checkpoints(a).back();
   const std::string bytes = read_file(ck);
 
@@ -154,7 +149,8 @@ TEST_CASE("truncated, corrupted and foreign checkpoints are clear errors", "[rl]
     CHECK(msg.find(ck) != std::string::npos);
     CHECK(msg.find("truncated") != std::string::npos);
     const std::string metrics = read_file(a + "/metrics.csv");
-    CHECK(error_of([&] { rl::train_resume(a, quiet()); }).find("truncated") != std::string::npos);
+    CHECK(error_of([&] { rl::train_resume(a, test::quiet()); }).find("truncated") !=
+          std::string::npos);
     CHECK(read_file(a + "/metrics.csv") == metrics);  // nothing rewritten
     CHECK(read_file(ck).size() == bytes.size() - 100);
   }
@@ -186,13 +182,13 @@ TEST_CASE("truncated, corrupted and foreign checkpoints are clear errors", "[rl]
     CHECK(msg.find(ck) != std::string::npos);
     CHECK(msg.find("holds the state of algorithm sac") != std::string::npos);
     CHECK(msg.find("trains with ppo") != std::string::npos);
-    CHECK(error_of([&] { rl::train_resume(a, quiet()); }).find("algorithm sac") !=
+    CHECK(error_of([&] { rl::train_resume(a, test::quiet()); }).find("algorithm sac") !=
           std::string::npos);
   }
   SECTION("a checkpoint whose networks differ from the run's config") {
     // same task, other hidden sizes
     const std::string c = tmp.file("c");
-    rl::train_new(test::tiny_yaml("hand_over", {"ppo.hidden=[16]"}), c, quiet());
+    rl::train_new(test::tiny_yaml("hand_over", {"ppo.hidden=[16]"}), c, test::quiet());
     const std::string msg = error_of([&] { rl::LoadedPolicy p(c, ck); });
     CHECK(msg.find("does not fit") != std::string::npos);
   }
@@ -202,7 +198,7 @@ TEST_CASE("a loaded policy evaluates: returns, success and lengths of whole epis
           "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
-  rl::train_new(test::tiny_yaml("catch_underarm_raise"), dir, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), dir, test::quiet());
   rl::LoadedPolicy p(dir);
   CHECK(p.update() == 2);
   auto r = rl::evaluate(p, 6, 9, 1);
@@ -297,7 +293,7 @@ TEST_CASE("bidex render --run writes the frames of one episode of the trained po
           "[rl][train][apps]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run"), frames = tmp.file("frames");
-  rl::train_new(test::tiny_yaml("catch_underarm_raise"), dir, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), dir, test::quiet());
   auto r = test::bidex_run("render --run " + dir + " --out " + frames +
                            " --max-frames 3 --width 64 --height 48");
   INFO(r.out);
@@ -317,13 +313,14 @@ TEST_CASE("bidex render --run writes the frames of one episode of the trained po
 TEST_CASE("value normalisation trains, is saved and loads with the checkpoint", "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
-  rl::train_new(test::tiny_yaml("catch_underarm_raise", {"ppo.value_norm=true"}), dir, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise", {"ppo.value_norm=true"}), dir,
+                test::quiet());
   for (double v : metric(dir, "value_loss")) CHECK(std::isfinite(v));
   rl::LoadedPolicy p(dir);  // the value normaliser's buffers fit
   CHECK(rl::evaluate(p, 2, 1, 1).episodes == 2);
   // a checkpoint trained with it still fits a run without it (same tensors, unused)
   const std::string other = tmp.file("other");
-  rl::train_new(test::tiny_yaml("catch_underarm_raise"), other, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), other, test::quiet());
   rl::LoadedPolicy q(other, rl::list_checkpoints(dir).back());
   CHECK(q.update() == 2);
 }

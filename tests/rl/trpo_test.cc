@@ -13,7 +13,8 @@ using namespace bidex;
 
 TEST_CASE("conjugate gradient solves a known system, one step the steepest-descent point",
           "[rl][trpo]") {
-  const auto A = torch::tensor({{4.0, 1.0, 0.0}, {1.0, 3.0, 1.0}, {0.0, 1.0, 2.0}}, torch::kFloat64);
+  const auto A =
+      torch::tensor({{4.0, 1.0, 0.0}, {1.0, 3.0, 1.0}, {0.0, 1.0, 2.0}}, torch::kFloat64);
   const auto b = torch::tensor({1.0, 2.0, 3.0}, torch::kFloat64);
   int products = 0;
   auto Avp = [&](const torch::Tensor& v) {
@@ -31,7 +32,8 @@ TEST_CASE("conjugate gradient solves a known system, one step the steepest-desce
   for (int i = 0; i < 3; ++i) CHECK(x1[i].item<double>() == Approx(0.28 * (i + 1)));
   // a zero right-hand side stops at once
   products = 0;
-  CHECK(rl::conjugate_gradient(Avp, torch::zeros({3}, torch::kFloat64), 5).abs().sum().item<double>() == 0);
+  const auto zero = rl::conjugate_gradient(Avp, torch::zeros({3}, torch::kFloat64), 5);
+  CHECK(zero.abs().sum().item<double>() == 0);
   CHECK(products == 0);
 }
 
@@ -96,26 +98,19 @@ TEST_CASE("TRPO steps within its KL bound and raises the probability of better a
   CHECK(mean_a0() > before + 0.1);
 }
 
-namespace {
-rl::TrainOptions quiet() {
-  rl::TrainOptions o;
-  o.progress = false;
-  return o;
-}
-}  // namespace
 
 TEST_CASE(
     "a TRPO run stops, resumes from its checkpoint and evaluates, and PPO's state is refused",
     "[rl][trpo]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("trpo"), ppo_dir = tmp.file("ppo");
-  auto o = quiet();
+  auto o = test::quiet();
   o.stop_after_updates = 1;
-  auto r = rl::train_new(test::tiny_trpo_yaml("catch_underarm_raise"), dir, o);
+  auto r = rl::train_new(test::tiny_onpolicy_yaml("trpo", "catch_underarm_raise"), dir, o);
   CHECK(r.interrupted);
   CHECK(r.updates == 1);
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).algo == "trpo");
-  r = rl::train_resume(dir, quiet());
+  r = rl::train_resume(dir, test::quiet());
   CHECK(r.updates == 2);
   CHECK_FALSE(r.interrupted);
   // the metrics have TRPO's columns; the step was taken within its bound
@@ -128,7 +123,7 @@ TEST_CASE(
   CHECK(e.episodes == 4);
   CHECK(std::isfinite(e.mean_return));
   // a PPO checkpoint of the same task and shapes is another algorithm's state
-  rl::train_new(test::tiny_yaml("catch_underarm_raise"), ppo_dir, quiet());
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), ppo_dir, test::quiet());
   const std::string ck = rl::list_checkpoints(ppo_dir).back();
   try {
     rl::LoadedPolicy q(dir, ck);
