@@ -1,5 +1,7 @@
 #include "core/clock.h"
 
+#include <chrono>
+
 #include <ctime>
 
 namespace bidex {
@@ -11,6 +13,11 @@ std::string utc_now() {
   char buf[32];
   std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
   return buf;
+}
+
+double monotonic_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
 }
 
 }  // namespace bidex

@@ -1,17 +1,11 @@
 #include "rl/collector.h"
 
-#include <chrono>
 #include <cstring>
 
+#include "core/clock.h"
 #include "taskpack/pack.h"
 
 namespace bidex::rl {
-
-namespace {
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
-}  // namespace
 
 Collector::Collector(taskpack::TaskPack& env, const torch::Device& device)
     : env_(env), device_(device) {
@@ -20,6 +14,9 @@ Collector::Collector(taskpack::TaskPack& env, const torch::Device& device)
   // one transfer per step:
   // [obs N*D | reward N | done N | bootstrap slot ids K | their final obs K*D]
   staging_ = torch::empty({2 * N * D + 3 * N}, host);
+  const auto on = torch::TensorOptions().device(device);
+  no_ids_ = torch::empty({0}, on.dtype(torch::kLong));
+  no_final_obs_ = torch::empty({0, D}, on.dtype(torch::kFloat32));
 }
 
 torch::Tensor Collector::upload(bool with_final, int* k_out) {
@@ -55,17 +52,22 @@ torch::Tensor Collector::reset() {
 Transition Collector::step(const torch::Tensor& actions) {
   const int N = env_.nslot(), D = env_.obs_dim();
   auto host_a = actions.to(torch::kCPU).contiguous();
-  const double t0 = now();
+  const double t0 = monotonic_seconds();
   env_.step(host_a.data_ptr<float>());
-  sim_s_ += now() - t0;
+  sim_s_ += monotonic_seconds() - t0;
   int k = 0;
   auto dev = upload(true, &k);
   Transition t;
   t.obs = dev.narrow(0, 0, int64_t(N) * D).view({N, D});
   t.reward = dev.narrow(0, int64_t(N) * D, N);
   t.done = dev.narrow(0, int64_t(N) * D + N, N);
-  t.final_ids = dev.narrow(0, int64_t(N) * D + 2 * N, k).to(torch::kLong);
-  t.final_obs = dev.narrow(0, int64_t(N) * D + 2 * N + k, int64_t(k) * D).view({k, D});
+  if (k > 0) {  // most steps cut no episode: no conversion then
+    t.final_ids = dev.narrow(0, int64_t(N) * D + 2 * N, k).to(torch::kLong);
+    t.final_obs = dev.narrow(0, int64_t(N) * D + 2 * N + k, int64_t(k) * D).view({k, D});
+  } else {
+    t.final_ids = no_ids_;
+    t.final_obs = no_final_obs_;
+  }
   return t;
 }
 

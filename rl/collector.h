@@ -30,6 +30,7 @@ class Collector {
   taskpack::TaskPack& env_;
   torch::Device device_;
   torch::Tensor staging_;
+  torch::Tensor no_ids_, no_final_obs_;  // what a step that cut no episode hands back
   double sim_s_ = 0;
 };
 

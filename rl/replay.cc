@@ -25,14 +25,17 @@ void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions,
     throw Error("replay buffer: one step of " + std::to_string(n) + " slots does not fit its " +
                 std::to_string(capacity_) + " rows");
   torch::NoGradGuard ng;
-  // rows next_, next_ + 1, ... wrapping round to the start
-  const auto rows = (torch::arange(n, torch::TensorOptions().dtype(torch::kLong).device(
-                                          obs_.device())) + next_) % capacity_;
-  obs_.index_copy_(0, rows, obs.to(obs_.device(), torch::kFloat32));
-  actions_.index_copy_(0, rows, actions.to(obs_.device(), torch::kFloat32));
-  rewards_.index_copy_(0, rows, rewards.to(obs_.device(), torch::kFloat32));
-  next_obs_.index_copy_(0, rows, next_obs.to(obs_.device(), torch::kFloat32));
-  terminal_.index_copy_(0, rows, terminal.to(obs_.device(), torch::kFloat32));
+  // rows next_, next_ + 1, ...: one slice, or two where they wrap round to the start
+  const int64_t first = std::min(n, capacity_ - next_);
+  auto put = [&](torch::Tensor& dst, const torch::Tensor& src) {
+    dst.narrow(0, next_, first).copy_(src.narrow(0, 0, first));
+    if (first < n) dst.narrow(0, 0, n - first).copy_(src.narrow(0, first, n - first));
+  };
+  put(obs_, obs);
+  put(actions_, actions);
+  put(rewards_, rewards);
+  put(next_obs_, next_obs);
+  put(terminal_, terminal);
   next_ = (next_ + n) % capacity_;
   size_ = std::min(capacity_, size_ + n);
 }

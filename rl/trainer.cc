@@ -1,7 +1,6 @@
 #include "rl/trainer.h"
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -60,10 +59,6 @@ class SignalScope {
  private:
   struct sigaction old_int_, old_term_;
 };
-
-double now() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 bool dir_is_empty_or_missing(const std::string& dir) {
   DIR* d = ::opendir(dir.c_str());
@@ -296,9 +291,9 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
 
   torch::Tensor obs = collector.reset();
   bool stopped = false;
-  const double session_start = now();
+  const double session_start = monotonic_seconds();
   while (s.update < total_updates) {
-    const double t_iter = now();
+    const double t_iter = monotonic_seconds();
     for (int t = 0; t < T && !g_stop; ++t) {
       Transition tr = collector.step(algo.act(obs));
       algo.observe(tr);
@@ -312,7 +307,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     const std::vector<double> algo_metrics = algo.update(obs);
     s.update += 1;
     s.steps += batch;
-    const double iter = now() - t_iter;
+    const double iter = monotonic_seconds() - t_iter;
     s.wall += iter;
     const std::vector<tasks::EpisodeStats> per = env.take_stats();
     recent.add(per);
@@ -359,7 +354,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                      fmt("%.3g", shown_return) + " success " + fmt("%.2f", shown_success));
       bar->update(std::min(s.steps, s.cfg.steps));
     }
-    const bool out_of_time = opt.time_limit_s > 0 && now() - session_start >= opt.time_limit_s;
+    const bool out_of_time =
+        opt.time_limit_s > 0 && monotonic_seconds() - session_start >= opt.time_limit_s;
     if (((opt.stop_after_updates > 0 && s.update >= opt.stop_after_updates) || out_of_time) &&
         s.update < total_updates) {
       stopped = true;

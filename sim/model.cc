@@ -2,8 +2,6 @@
 
 #include <mujoco/mujoco.h>
 
-#include <cstring>
-
 #include "core/error.h"
 
 namespace bidex::sim {
