@@ -86,7 +86,6 @@ struct Baseline {
 }  // namespace
 
 void SoakTally::add(const sim::SimBatch& batch) {
-  static_assert(sizeof(by_kind) / sizeof(by_kind[0]) == sim::kFaultKinds);
   for (int s = 0; s < batch.nslot(); ++s) {
     for (int k = 0; k < sim::kFaultKinds; ++k)
       if (batch.fault[s] & (1u << k)) ++by_kind[k];
@@ -103,6 +102,7 @@ void SoakTally::to_json(json& out) const {
   out["faults_exploded"] = by_kind[2];
   out["faults_mujoco_warning"] = by_kind[3];
   out["faults_mujoco_error"] = by_kind[4];
+  out["faults_overflow"] = by_kind[5];
   out["maxuse_arena"] = maxuse_arena;
   out["maxuse_con"] = maxuse_con;
   out["maxuse_efc"] = maxuse_efc;

@@ -9,6 +9,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "sim/batch.h"
 #include "sim/physics.h"
 
 namespace bidex::sim {
@@ -42,7 +43,7 @@ inline double seconds_since(std::chrono::steady_clock::time_point t0) {
 // What a soak watches over many steps: faults by kind (sim::FaultBits) and the largest MuJoCo
 // memory use of any slot (arena bytes, contacts, constraint rows).
 struct SoakTally {
-  int64_t by_kind[5] = {0, 0, 0, 0, 0};
+  int64_t by_kind[sim::kFaultKinds] = {};
   int64_t maxuse_arena = 0;
   int maxuse_con = 0, maxuse_efc = 0;
   void add(const sim::SimBatch& batch);     // after each step

@@ -42,4 +42,11 @@ class IoError : public Error {
   using Error::Error;
 };
 
+// A device or package the command needs is missing or failed (no GPU, no MuJoCo Warp, a CUDA
+// driver call that failed): names what is missing and how to install it.
+class DeviceError : public Error {
+ public:
+  using Error::Error;
+};
+
 }  // namespace bidex

@@ -50,8 +50,9 @@ enum FaultBits : uint32_t {
   kFaultExploded = 1u << 2,     // |qvel| above PhysicsOptions::max_speed
   kFaultMujocoWarn = 1u << 3,   // MuJoCo warned (bad qacc, contact/constraint buffer full, ...)
   kFaultMujocoError = 1u << 4,  // MuJoCo raised an error (e.g. its mjData stack overflowed)
+  kFaultOverflow = 1u << 5,     // GPU backend: a world ran out of constraint rows or contacts
 };
-constexpr int kFaultKinds = 5;
+constexpr int kFaultKinds = 6;
 
 struct BatchOptions {
   int threads = 0;        // 0: all cores (OpenMP default)

@@ -1,0 +1,300 @@
+#include "sim/warp_backend.h"
+
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <mutex>
+#include <unistd.h>
+
+#include <mujoco/mujoco.h>
+
+#include "core/error.h"
+#include "sim/cuda_driver.h"
+
+#ifdef BIDEX_WARP
+#include <pybind11/embed.h>
+#include <pybind11/stl.h>
+namespace py = pybind11;
+#endif
+
+namespace bidex::sim {
+namespace {
+
+const char* kInstall =
+    "run scripts/setup.sh --gpu (it pip-installs the pinned warp-lang and mujoco-warp into "
+    ".venv/), or on a machine without package access scripts/offline-build.sh (README, 'With a "
+    "GPU')";
+
+}  // namespace
+
+#ifndef BIDEX_WARP
+
+bool warp_built() { return false; }
+std::string warp_missing() {
+  return "this build of bidex has no GPU backend: it was configured without Python's embedding "
+         "headers (Debian: python3-dev, pybind11-dev); install them and rebuild (scripts/setup.sh "
+         "does both)";
+}
+
+struct WarpBackend::Impl {};
+
+WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
+    : model_(&model), nworld_(nworld), options_(std::move(options)) {
+  throw DeviceError(warp_missing());
+}
+WarpBackend::~WarpBackend() = default;
+bool WarpBackend::on_gpu() const { return false; }
+WorldArray WarpBackend::array(const std::string&) const { return {}; }
+void WarpBackend::step() {}
+void WarpBackend::reset_begin() {}
+void WarpBackend::reset_end() {}
+void WarpBackend::random_inputs(uint64_t, int64_t, double, double) {}
+void WarpBackend::raw_step() {}
+void WarpBackend::synchronize() {}
+void WarpBackend::copy_out(const std::string&, void*, size_t) const {}
+void WarpBackend::upload(const std::string&, const std::vector<float>&) {}
+size_t WarpBackend::device_bytes() const { return 0; }
+
+#else
+
+bool warp_built() { return true; }
+std::string warp_missing() { return ""; }
+
+namespace {
+
+// One interpreter per process, started on first use and never finalized (Warp and the CUDA
+// driver hold state to the end of the process). The GIL is released between calls.
+void ensure_python() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    py::initialize_interpreter(false);
+    {
+      py::list path = py::module_::import("sys").attr("path");
+      // the packages (mujoco, warp, mujoco_warp) and the bridge beside this file
+      path.insert(0, BIDEX_PYTHON_SITE);
+      if (const char* extra = std::getenv("BIDEX_PYTHON_SITE")) path.insert(0, extra);
+      path.insert(0, BIDEX_SOURCE_DIR "/sim");
+    }
+    PyEval_SaveThread();
+  });
+}
+
+// A Python exception as one line: its type and message.
+std::string describe(const py::error_already_set& e) {
+  std::string what = e.what();
+  const auto nl = what.find('\n');
+  return nl == std::string::npos ? what : what.substr(0, nl);
+}
+
+py::module_ import_bridge() {
+  for (const char* pkg : {"mujoco", "warp", "mujoco_warp"}) {
+    try {
+      py::module_::import(pkg);
+    } catch (const py::error_already_set& e) {
+      throw DeviceError(std::string("GPU backend: Python package '") + pkg +
+                        "' did not import from " + BIDEX_PYTHON_SITE + " (" + describe(e) +
+                        "): " + kInstall);
+    }
+  }
+  return py::module_::import("warp_bridge");
+}
+
+// The compiled model as MuJoCo's binary file, which the bridge loads (same library version).
+std::string save_model(const mjModel* m) {
+  char path[] = "/tmp/bidex-model-XXXXXX.mjb";
+  const int fd = mkstemps(path, 4);
+  if (fd < 0) throw IoError(std::string("cannot create a temporary model file in /tmp: ") +
+                            std::strerror(errno));
+  close(fd);
+  mj_saveModel(m, path, nullptr, 0);
+  return path;
+}
+
+}  // namespace
+
+struct WarpBackend::Impl {
+  py::object bridge;
+  std::map<std::string, WorldArray> arrays;
+  cuda::Stream stream;
+  bool gpu = false;
+  std::map<std::string, uintptr_t> graphs;  // pass name -> executable graph (GPU only)
+
+  void run(const std::string& pass) {
+    if (gpu) {
+      cuda::launch_graph(stream, graphs.at(pass));
+      return;
+    }
+    py::gil_scoped_acquire gil;
+    try {
+      bridge.attr("run")(pass);
+    } catch (const py::error_already_set& e) {
+      throw DeviceError("GPU backend: the " + pass + " pass failed: " + describe(e));
+    }
+  }
+
+  ~Impl() {
+    if (bridge) {
+      py::gil_scoped_acquire gil;
+      bridge = py::object();
+    }
+  }
+};
+
+WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
+    : model_(&model), nworld_(nworld), options_(std::move(options)), impl_(new Impl) {
+  if (nworld < 1) throw Error("GPU backend: nworld must be >= 1, got " + std::to_string(nworld));
+  const bool want_gpu = options_.device.rfind("cuda", 0) == 0;
+  if (want_gpu && !cuda::driver_available())
+    throw DeviceError("--device cuda: no NVIDIA driver on this machine (libcuda.so.1 did not "
+                      "load); use --device cpu");
+  ensure_python();
+  py::gil_scoped_acquire gil;
+  py::module_ mod = import_bridge();
+
+  std::vector<int> roots;
+  for (const auto& h : model.hands()) roots.push_back(h.free_base ? h.root_body : -1);
+  const std::string mjb = save_model(model.mj());
+  try {
+    impl_->bridge = mod.attr("Bridge")(mjb, nworld, model.physics().substeps, options_.njmax,
+                                       options_.nconmax, model.physics().max_speed, roots,
+                                       options_.device);
+  } catch (const py::error_already_set& e) {
+    std::remove(mjb.c_str());
+    throw DeviceError("GPU backend: MuJoCo Warp could not set up " + std::to_string(nworld) +
+                      " worlds on '" + options_.device + "': " + describe(e));
+  }
+  std::remove(mjb.c_str());
+
+  auto arrays = impl_->bridge.attr("arrays")().cast<std::map<std::string, py::tuple>>();
+  for (auto& [name, t] : arrays)
+    impl_->arrays[name] = {t[0].cast<uintptr_t>(), t[1].cast<int>(), t[2].cast<int>()};
+  auto s = impl_->bridge.attr("stream")().cast<std::pair<uintptr_t, uintptr_t>>();
+  impl_->stream = {s.first, s.second};
+  impl_->gpu = s.second != 0 || s.first != 0;
+  if (impl_->gpu) {
+    for (const char* pass : {"step", "reset_begin", "reset_end", "raw_step"}) {
+      try {
+        impl_->graphs[pass] = impl_->bridge.attr("capture")(pass).cast<uintptr_t>();
+      } catch (const py::error_already_set& e) {
+        throw DeviceError(std::string("GPU backend: capturing the ") + pass +
+                          " pass as a CUDA graph failed: " + describe(e));
+      }
+    }
+  }
+}
+
+WarpBackend::~WarpBackend() = default;
+
+bool WarpBackend::on_gpu() const { return impl_->gpu; }
+
+WorldArray WarpBackend::array(const std::string& name) const {
+  auto it = impl_->arrays.find(name);
+  if (it == impl_->arrays.end()) throw Error("GPU backend: no array named '" + name + "'");
+  return it->second;
+}
+
+void WarpBackend::step() { impl_->run("step"); }
+void WarpBackend::reset_begin() { impl_->run("reset_begin"); }
+void WarpBackend::reset_end() { impl_->run("reset_end"); }
+void WarpBackend::raw_step() { impl_->run("raw_step"); }
+
+void WarpBackend::random_inputs(uint64_t seed, int64_t step, double max_force,
+                                double max_torque) {
+  // a benchmark's input pass: one Python launch (not part of the per-step path of training)
+  py::gil_scoped_acquire gil;
+  impl_->bridge.attr("random_inputs")(static_cast<int>(seed & 0x7fffffff),
+                                      static_cast<int>(step & 0x7fffffff), max_force, max_torque);
+}
+
+void WarpBackend::synchronize() {
+  if (impl_->gpu) {
+    cuda::synchronize(impl_->stream);
+    return;
+  }
+  py::gil_scoped_acquire gil;
+  impl_->bridge.attr("synchronize")();
+}
+
+void WarpBackend::copy_out(const std::string& name, void* dst, size_t elem_bytes) const {
+  const WorldArray a = array(name);
+  const size_t bytes = static_cast<size_t>(a.rows) * a.width * elem_bytes;
+  if (impl_->gpu) {
+    cuda::copy_to_host(impl_->stream, dst, a.ptr, bytes);
+  } else {
+    const_cast<WarpBackend*>(this)->synchronize();
+    std::memcpy(dst, reinterpret_cast<const void*>(a.ptr), bytes);
+  }
+}
+
+void WarpBackend::upload(const std::string& name, const std::vector<float>& values) {
+  const WorldArray a = array(name);
+  const size_t n = static_cast<size_t>(a.rows) * a.width;
+  if (values.size() != n)
+    throw Error("GPU backend: upload to '" + name + "' needs " + std::to_string(n) +
+                " values, got " + std::to_string(values.size()));
+  if (impl_->gpu) {
+    cuda::copy_to_device(impl_->stream, a.ptr, values.data(), n * sizeof(float));
+  } else {
+    synchronize();
+    std::memcpy(reinterpret_cast<void*>(a.ptr), values.data(), n * sizeof(float));
+  }
+}
+
+size_t WarpBackend::device_bytes() const {
+  py::gil_scoped_acquire gil;
+  return impl_->bridge.attr("memory")().cast<size_t>();
+}
+
+#endif  // BIDEX_WARP
+
+std::vector<float> WarpBackend::download(const std::string& name) const {
+  return download_as<float>(name);
+}
+
+int64_t WarpBackend::total_faults() const {
+  int64_t n = 0;
+  for (int64_t c : download_as<int64_t>("fault_count")) n += c;
+  return n;
+}
+
+int64_t WarpBackend::total_overflows() const {
+  int64_t n = 0;
+  for (int64_t c : download_as<int64_t>("overflow_count")) n += c;
+  return n;
+}
+
+namespace {
+template <class T>
+T* at(const WorldArray& a, int world) {
+  return a.ptr ? reinterpret_cast<T*>(a.ptr) + static_cast<size_t>(world) * a.width : nullptr;
+}
+}  // namespace
+
+WorldRows<float> WarpBackend::rows(int w) const {
+  WorldRows<float> r;
+  r.qpos = at<float>(array("qpos"), w);
+  r.qvel = at<float>(array("qvel"), w);
+  r.qfrc_actuator = at<float>(array("qfrc_actuator"), w);
+  r.qfrc_constraint = at<float>(array("qfrc_constraint"), w);
+  r.sensordata = at<float>(array("sensordata"), w);
+  r.xpos = at<float>(array("xpos"), w);
+  r.xquat = at<float>(array("xquat"), w);
+  r.cvel = at<float>(array("cvel"), w);
+  r.subtree_com = at<float>(array("subtree_com"), w);
+  r.ctrl = at<float>(array("ctrl"), w);
+  r.base_wrench = at<float>(array("base_wrench"), w);
+  return r;
+}
+
+ResetRows<float> WarpBackend::reset_rows(int w) const {
+  ResetRows<float> r;
+  r.qpos = at<float>(array("qpos"), w);
+  r.qvel = at<float>(array("qvel"), w);
+  r.ctrl = at<float>(array("ctrl"), w);
+  r.mocap_pos = at<float>(array("mocap_pos"), w);
+  r.mocap_quat = at<float>(array("mocap_quat"), w);
+  return r;
+}
+
+}  // namespace bidex::sim

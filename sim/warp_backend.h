@@ -1,0 +1,109 @@
+// WarpBackend: the worlds of one SimModel on MuJoCo Warp (GPU.md's design, sim/README.md).
+//
+// Python runs at construction only: it loads the same compiled model (a binary copy of SimModel's
+// mjModel), puts it on the device, allocates the worlds and captures three passes as CUDA
+// graphs (sim/warp_bridge.py): the control step (substeps with the base forces at the pivots,
+// then the fault check), and the two halves of a reset (marked worlds back to the initial state;
+// then the position pass after task code wrote their rows). C++ launches the graphs on the
+// backend's stream through the CUDA driver; every array is world-major float32 memory on the
+// device whose pointer C++ holds. On Warp's CPU device (tests without a GPU) the same passes run
+// as Python calls and the pointers are host memory.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim/model.h"
+#include "sim/state_view.h"
+
+namespace bidex::sim {
+
+struct WarpOptions {
+  std::string device = "cuda";  // a Warp device: "cuda", "cuda:1", or "cpu" (tests)
+  // room per world (GPU.md): constraint rows and contacts; a world that needs more is flagged
+  // (kFaultOverflow), reset and counted
+  int njmax = 192;
+  int nconmax = 64;
+};
+
+// One world-major array: `rows` worlds of `width` values (float32, or the named integer type).
+struct WorldArray {
+  uintptr_t ptr = 0;  // device address (host address on Warp's CPU device)
+  int rows = 0;
+  int width = 0;
+};
+
+// Whether this build can make a WarpBackend, and if not why (names what to install).
+bool warp_built();
+std::string warp_missing();
+
+class WarpBackend {
+ public:
+  // Throws DeviceError naming what is missing (this build's Python embedding, the mujoco,
+  // warp-lang or mujoco-warp packages, a GPU) and how to install it.
+  WarpBackend(const SimModel& model, int nworld, WarpOptions options = {});
+  ~WarpBackend();
+  WarpBackend(const WarpBackend&) = delete;
+  WarpBackend& operator=(const WarpBackend&) = delete;
+
+  const SimModel& model() const { return *model_; }
+  int nworld() const { return nworld_; }
+  bool on_gpu() const;
+  const WarpOptions& options() const { return options_; }
+
+  // Named world-major arrays: qpos, qvel, ctrl, qfrc_actuator, qfrc_constraint, sensordata, xpos,
+  // xquat, cvel, subtree_com, mocap_pos, mocap_quat, xfrc_applied, time (float32); base_wrench
+  // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_count and
+  // overflow_count (int64 per world), reset (int32: 1 marks a world for the next reset).
+  WorldArray array(const std::string& name) const;
+  // One world's rows as task stage bodies see them (addresses on the backend's device).
+  WorldRows<float> rows(int world) const;
+  ResetRows<float> reset_rows(int world) const;
+
+  // One control step of every world, then the fault check, which marks faulty worlds in `reset`.
+  // Asynchronous on a GPU: it returns once the work is queued on the backend's stream.
+  void step();
+  // Worlds marked in `reset` back to the scene's initial state: targets at the joints, no base
+  // forces, zero velocity. Task code then writes their reset rows; reset_end runs the position
+  // pass (poses, centres of mass, velocities) so that observations see the new state.
+  void reset_begin();
+  void reset_end();
+  // Benchmarks: uniform targets over the control ranges and base forces/torques up to the caps.
+  void random_inputs(uint64_t seed, int64_t step, double max_force, double max_torque);
+  // Benchmarks: the substeps of raw MuJoCo Warp, without bidex's passes.
+  void raw_step();
+  // Waits for the queued work.
+  void synchronize();
+
+  // Copies between an array and host memory (tests, summaries; waits for the stream).
+  std::vector<float> download(const std::string& name) const;
+  template <class T>
+  std::vector<T> download_as(const std::string& name) const;
+  void upload(const std::string& name, const std::vector<float>& values);
+
+  // Faults and overflows over all worlds since construction (copies two arrays to the host).
+  int64_t total_faults() const;
+  int64_t total_overflows() const;
+  // Bytes Warp holds on the device (0 on the CPU device).
+  size_t device_bytes() const;
+
+ private:
+  struct Impl;
+  const SimModel* model_;
+  int nworld_ = 0;
+  WarpOptions options_;
+  std::unique_ptr<Impl> impl_;
+  void copy_out(const std::string& name, void* dst, size_t elem_bytes) const;
+};
+
+template <class T>
+std::vector<T> WarpBackend::download_as(const std::string& name) const {
+  const WorldArray a = array(name);
+  std::vector<T> out(static_cast<size_t>(a.rows) * a.width);
+  copy_out(name, out.data(), sizeof(T));
+  return out;
+}
+
+}  // namespace bidex::sim

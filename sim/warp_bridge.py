@@ -1,0 +1,265 @@
+"""Setup half of bidex's GPU backend (sim/warp_backend.cc embeds this file).
+
+Runs once, at construction: loads the scene that the C++ side compiled (a binary MuJoCo model),
+puts it on the device with MuJoCo Warp, allocates the worlds and bidex's own per-world arrays,
+and captures the control step and the reset passes as CUDA graphs. The C++ side then launches
+those graphs and its own kernels on the same stream; no Python runs per step on a GPU.
+On Warp's CPU device there are no graphs: the C++ side calls step() and the reset passes here.
+"""
+
+import mujoco
+import mujoco_warp as mjw
+import numpy as np
+import warp as wp
+
+wp.config.quiet = True  # no per-module load messages
+
+# bits of a world's fault word (sim/batch.h FaultBits)
+FAULT_NONFINITE = 1 << 1
+FAULT_EXPLODED = 1 << 2
+FAULT_OVERFLOW = 1 << 5
+
+
+@wp.kernel
+def _base_wrench(
+  root_body: wp.array(dtype=int),
+  wrench: wp.array2d(dtype=float),
+  xpos: wp.array2d(dtype=wp.vec3),
+  xipos: wp.array2d(dtype=wp.vec3),
+  xfrc_applied: wp.array2d(dtype=wp.spatial_vector),
+):
+  # a base force acts at the pivot (the body origin): MuJoCo applies xfrc at the centre of mass,
+  # so the torque gets the force's moment about the pivot (sim/batch.cc update_base_wrench)
+  w, h = wp.tid()
+  b = root_body[h]
+  if b < 0:  # a fixed base
+    return
+  f = wp.vec3(wrench[w, 6 * h + 0], wrench[w, 6 * h + 1], wrench[w, 6 * h + 2])
+  t = wp.vec3(wrench[w, 6 * h + 3], wrench[w, 6 * h + 4], wrench[w, 6 * h + 5])
+  r = xpos[w, b] - xipos[w, b]
+  t = t + wp.cross(r, f)
+  xfrc_applied[w, b] = wp.spatial_vector(f[0], f[1], f[2], t[0], t[1], t[2])
+
+
+@wp.kernel
+def _check(
+  qpos: wp.array2d(dtype=float),
+  qvel: wp.array2d(dtype=float),
+  max_speed: float,
+  overflow: wp.array(dtype=int),
+  fault: wp.array(dtype=wp.uint32),
+  fault_count: wp.array(dtype=wp.int64),
+  overflow_count: wp.array(dtype=wp.int64),
+  reset: wp.array(dtype=wp.int32),
+):
+  w = wp.tid()
+  bits = wp.uint32(0)
+  for i in range(qpos.shape[1]):
+    if not wp.isfinite(qpos[w, i]):
+      bits = bits | wp.uint32(FAULT_NONFINITE)
+  for i in range(qvel.shape[1]):
+    v = qvel[w, i]
+    if not wp.isfinite(v):
+      bits = bits | wp.uint32(FAULT_NONFINITE)
+    elif wp.abs(v) > max_speed:
+      bits = bits | wp.uint32(FAULT_EXPLODED)
+  if overflow[w] != 0:
+    bits = bits | wp.uint32(FAULT_OVERFLOW)
+    overflow_count[w] = overflow_count[w] + wp.int64(1)
+    overflow[w] = 0
+  fault[w] = bits
+  if bits != wp.uint32(0):
+    fault_count[w] = fault_count[w] + wp.int64(1)
+    reset[w] = 1
+  else:
+    reset[w] = 0
+
+
+@wp.kernel
+def _reset_inputs(
+  reset: wp.array(dtype=wp.int32),
+  act_qposadr: wp.array(dtype=int),
+  ctrl_lo: wp.array(dtype=float),
+  ctrl_hi: wp.array(dtype=float),
+  qpos: wp.array2d(dtype=float),
+  ctrl: wp.array2d(dtype=float),
+  wrench: wp.array2d(dtype=float),
+  xfrc_applied: wp.array2d(dtype=wp.spatial_vector),
+):
+  # a reset world: position targets at the current joints (inside the control range), no base
+  # forces (sim/batch.cc reset_slot)
+  w = wp.tid()
+  if reset[w] == 0:
+    return
+  for a in range(ctrl.shape[1]):
+    target = float(0.0)
+    if act_qposadr[a] >= 0:
+      target = qpos[w, act_qposadr[a]]
+    ctrl[w, a] = wp.clamp(target, ctrl_lo[a], ctrl_hi[a])
+  for k in range(wrench.shape[1]):
+    wrench[w, k] = 0.0
+  for b in range(xfrc_applied.shape[1]):
+    xfrc_applied[w, b] = wp.spatial_vector()
+
+
+@wp.kernel
+def _random_inputs(
+  seed: int,
+  step: int,
+  ctrl_lo: wp.array(dtype=float),
+  ctrl_hi: wp.array(dtype=float),
+  max_force: float,
+  max_torque: float,
+  ctrl: wp.array2d(dtype=float),
+  wrench: wp.array2d(dtype=float),
+):
+  # benchmarks: uniform targets over the control ranges, base forces and torques up to the caps
+  w = wp.tid()
+  state = wp.rand_init(seed, w * 7919 + step)
+  for a in range(ctrl.shape[1]):
+    ctrl[w, a] = ctrl_lo[a] + (ctrl_hi[a] - ctrl_lo[a]) * wp.randf(state)
+  for k in range(wrench.shape[1]):
+    cap = max_force
+    if (k % 6) >= 3:
+      cap = max_torque
+    wrench[w, k] = cap * (2.0 * wp.randf(state) - 1.0)
+
+
+class Bridge:
+  """One scene's worlds on one Warp device."""
+
+  def __init__(self, mjb_path, nworld, substeps, njmax, nconmax, max_speed, root_bodies, device):
+    """root_bodies: per hand, the base body a base wrench acts on (-1: a fixed base)."""
+    wp.init()
+    if device.startswith("cuda") and not wp.is_cuda_available():
+      raise RuntimeError("no CUDA device: Warp found no GPU or no working NVIDIA driver")
+    self.device = wp.get_device(device)
+    self.mjm = mujoco.MjModel.from_binary_path(mjb_path)
+    self.nworld = nworld
+    self.substeps = substeps
+    self.max_speed = max_speed
+    mjm = self.mjm
+    with wp.ScopedDevice(self.device):
+      mjd = mujoco.MjData(mjm)
+      self.m = mjw.put_model(mjm)
+      self.m.opt.warn_overflow = 0  # overflows are counted per world (_check), not printed
+      self.d = mjw.put_data(mjm, mjd, nworld=nworld, njmax=njmax, nconmax=nconmax)
+      nwrench = 6 * len(root_bodies)
+      self.root_body = wp.array(np.asarray(root_bodies, dtype=np.int32), dtype=int)
+      self.has_free_base = any(b >= 0 for b in root_bodies)
+      self.base_wrench = wp.zeros((nworld, max(nwrench, 1)), dtype=float)
+      self.fault = wp.zeros(nworld, dtype=wp.uint32)
+      self.fault_count = wp.zeros(nworld, dtype=wp.int64)
+      self.overflow_count = wp.zeros(nworld, dtype=wp.int64)
+      self.reset_mask = wp.zeros(nworld, dtype=wp.int32)
+      qposadr = np.full(mjm.nu, -1, dtype=np.int32)
+      for a in range(mjm.nu):
+        if mjm.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_JOINT:
+          qposadr[a] = mjm.jnt_qposadr[mjm.actuator_trnid[a, 0]]
+      limited = mjm.actuator_ctrllimited.astype(bool)
+      lo = np.where(limited, mjm.actuator_ctrlrange[:, 0], -np.inf).astype(np.float32)
+      hi = np.where(limited, mjm.actuator_ctrlrange[:, 1], np.inf).astype(np.float32)
+      self.act_qposadr = wp.array(qposadr, dtype=int)
+      self.ctrl_lo = wp.array(lo, dtype=float)
+      self.ctrl_hi = wp.array(hi, dtype=float)
+      # every world starts reset: targets at the joints, no base forces
+      self.reset_mask.fill_(1)
+      self._reset_inputs()
+      mjw.forward(self.m, self.d)
+      self.reset_mask.zero_()
+    self.graphs = {}
+
+  # ---- the passes (captured as graphs on a GPU) ----
+
+  def step(self):
+    """One control step: substeps of physics with the base forces at the pivots, then the
+    fault check, which marks faulty worlds in reset_mask."""
+    m, d = self.m, self.d
+    for _ in range(self.substeps):
+      if self.has_free_base:
+        wp.launch(_base_wrench, dim=(self.nworld, self.root_body.shape[0]),
+                  inputs=[self.root_body, self.base_wrench, d.xpos, d.xipos, d.xfrc_applied])
+      mjw.step(m, d)
+    wp.launch(_check, dim=self.nworld,
+              inputs=[d.qpos, d.qvel, self.max_speed, d.overflow, self.fault, self.fault_count,
+                      self.overflow_count, self.reset_mask])
+
+  def raw_step(self):
+    """The same substeps without bidex's passes (benchmarks compare the two)."""
+    for _ in range(self.substeps):
+      mjw.step(self.m, self.d)
+
+  def reset_begin(self):
+    """Marked worlds back to the model's initial state, targets at the joints, no forces."""
+    mjw.reset_data(self.m, self.d, reset=self.reset_mask)
+    self._reset_inputs()
+
+  def reset_end(self):
+    """The position pass after reset rows were written: poses, centres of mass, velocities."""
+    mjw.kinematics(self.m, self.d)
+    mjw.com_pos(self.m, self.d)
+    mjw.com_vel(self.m, self.d)
+
+  def random_inputs(self, seed, step, max_force, max_torque):
+    wp.launch(_random_inputs, dim=self.nworld,
+              inputs=[seed, step, self.ctrl_lo, self.ctrl_hi, max_force, max_torque, self.d.ctrl,
+                      self.base_wrench])
+
+  def _reset_inputs(self):
+    wp.launch(_reset_inputs, dim=self.nworld,
+              inputs=[self.reset_mask, self.act_qposadr, self.ctrl_lo, self.ctrl_hi, self.d.qpos,
+                      self.d.ctrl, self.base_wrench, self.d.xfrc_applied])
+
+  # ---- graphs ----
+
+  def capture(self, name):
+    """Captures one pass as a CUDA graph; returns its executable graph handle."""
+    fn = getattr(self, name)
+    with wp.ScopedDevice(self.device):
+      fn()  # loads the kernels' modules before the capture
+      with wp.ScopedCapture() as cap:
+        fn()
+    self.graphs[name] = cap.graph
+    return int(cap.graph.graph_exec.value)
+
+  def run(self, name):
+    """Runs one pass: its graph on a GPU, the Python pass on Warp's CPU device."""
+    g = self.graphs.get(name)
+    if g is not None:
+      wp.capture_launch(g)
+    else:
+      with wp.ScopedDevice(self.device):
+        getattr(self, name)()
+
+  def synchronize(self):
+    wp.synchronize_device(self.device)
+
+  # ---- what the C++ side reads ----
+
+  def arrays(self):
+    d = self.d
+    named = {
+      "qpos": d.qpos, "qvel": d.qvel, "ctrl": d.ctrl, "qfrc_actuator": d.qfrc_actuator,
+      "qfrc_constraint": d.qfrc_constraint, "sensordata": d.sensordata, "xpos": d.xpos,
+      "xquat": d.xquat, "cvel": d.cvel, "subtree_com": d.subtree_com, "mocap_pos": d.mocap_pos,
+      "mocap_quat": d.mocap_quat, "xfrc_applied": d.xfrc_applied, "time": d.time,
+      "base_wrench": self.base_wrench, "fault": self.fault, "fault_count": self.fault_count,
+      "overflow_count": self.overflow_count, "reset": self.reset_mask,
+    }
+    out = {}
+    for k, a in named.items():
+      width = int(np.prod(a.shape[1:])) * (a.dtype._length_ if hasattr(a.dtype, "_length_") else 1)
+      out[k] = (int(a.ptr) if a.ptr else 0, int(a.shape[0]), width)
+    return out
+
+  def stream(self):
+    """(CUDA context, stream) handles, 0 on the CPU device."""
+    if not self.device.is_cuda:
+      return (0, 0)
+    return (int(self.device.context), int(self.device.stream.cuda_stream))
+
+  def memory(self):
+    """Bytes Warp holds on the device (model, data and bidex's arrays)."""
+    if not self.device.is_cuda:
+      return 0
+    return int(wp.get_mempool_used_mem_current(self.device))
