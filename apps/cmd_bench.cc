@@ -9,6 +9,7 @@
 #include "bench/physics_study.h"
 #include "bench/sim_bench.h"
 #include "bench/task_bench.h"
+#include "bench/warp_bench.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "sim/hand_spec.h"
@@ -135,6 +136,34 @@ void add_bench_command(CLI::App& app) {
   pack->add_option("--out,-o", *pack_out, "Write the JSON here (atomically) instead of stdout");
   pack->footer("Example:\n  bidex bench pack --suite MT4 --slots 64 --seconds 0.5 --rounds 1");
   pack->callback([pc, pack_out] { emit(bench::run_pack_bench(*pc), *pack_out, command_line()); });
+
+  // bench warp
+  auto wc = std::make_shared<bench::WarpBenchConfig>();
+  auto warp_out = std::make_shared<std::string>();
+  auto* warp = bench->add_subcommand(
+      "warp", "The GPU backend on MuJoCo Warp: bidex's control step (base forces, fault check, "
+              "reset and position passes) against raw MuJoCo Warp on each task's scene and world "
+              "count, in one run, random inputs; needs an NVIDIA GPU and MuJoCo Warp (README, "
+              "'With a GPU')");
+  warp->add_option("--task", wc->tasks, "Task ids (their scenes), e.g. catch_underarm,hand_over")
+      ->delimiter(',')->required();
+  warp->add_option("--worlds", wc->worlds, "World counts")->delimiter(',')
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  warp->add_option("--device", wc->device, "Warp device: cuda, cuda:N, or cpu (plumbing only)")
+      ->capture_default_str();
+  warp->add_option("--seconds", wc->min_seconds, "Timed stepping per measurement")
+      ->capture_default_str();
+  warp->add_option("--rounds", wc->rounds, "Alternations of raw and bidex (best of each kept)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  warp->add_option("--njmax", wc->njmax, "Constraint rows per world")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  warp->add_option("--nconmax", wc->nconmax, "Contacts per world")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  warp->add_option("--physics", wc->physics_file, "Physics YAML (default: configs/sim/physics.yaml)");
+  warp->add_option("--seed", wc->seed, "Seed of the random inputs")->capture_default_str();
+  warp->add_option("--out,-o", *warp_out, "Write the JSON here (atomically) instead of stdout");
+  warp->footer("Example:\n  bidex bench warp --task catch_underarm --worlds 2048,8192 --seconds 2");
+  warp->callback([wc, warp_out] { emit(bench::run_warp_bench(*wc), *warp_out, command_line()); });
 
   // bench physics
   auto ps = std::make_shared<bench::PhysicsStudyConfig>();

@@ -4,11 +4,16 @@
 # that has apt and pip.
 #
 #   scripts/offline-build.sh bundle [DEPS]          # where apt works: the .debs and the wheel (default .deps/)
+#   scripts/offline-build.sh bundle-gpu [DEPS]      # the same plus the GPU backend's wheels
+#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts of at most 60 MB (default .parts/)
+#   scripts/offline-build.sh join  [PARTS] [DEPS]   # on the target: the parts back into DEPS
 #   scripts/offline-build.sh build  [DEPS] [BUILD]  # on the target: unpack, configure, build
 #
 # `bundle` downloads the mujoco wheel for the target's Python: $BIDEX_TARGET_PYTHON (default 3.11,
-# Debian 12's; 3.12 on the GPU machine). `build` unpacks every .deb into a private prefix
-# (BUILD/deps, never /) and the wheel matching the local python3 beside it, finds LibTorch
+# Debian 12's; 3.12 on the GPU machine); `bundle-gpu` adds the pinned warp-lang and mujoco-warp,
+# pybind11 (Python's embedding) and their dependencies (about 200 MB: warp-lang alone is 149 MB,
+# hence `split` for transfers limited in size). `build` unpacks every .deb into a private prefix
+# (BUILD/deps, never /) and installs the wheels for the local python3 beside it, finds LibTorch
 # through the local PyTorch (python3 -c 'import torch; print(torch.utils.cmake_prefix_path)', or
 # $BIDEX_TORCH_PREFIX) so tensors go to its GPU, and links with an old-style rpath so that the
 # bundled libraries are found at run time without LD_LIBRARY_PATH.
@@ -22,20 +27,45 @@ debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen
       # with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
       libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0
       libosmesa6 libosmesa6-dev libglapi-mesa libllvm15 libz3-4 libedit2 libbsd0 libmd0
-      libxml2 libicu72 libpng16-16 libpng-dev)
+      libxml2 libicu72 libpng16-16 libpng-dev librandom123-dev)
+
+gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
+part_size=60M
 
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
 case "$mode" in
-  bundle)
+  bundle|bundle-gpu)
     mkdir -p "$deps"
     (cd "$deps" && apt-get download "${debs[@]}")
     py=${BIDEX_TARGET_PYTHON:-3.11}
-    python3 -m pip download -q --disable-pip-version-check --no-deps --only-binary=:all: \
-      --implementation cp --python-version "$py" --platform manylinux_2_28_x86_64 \
-      --platform manylinux_2_27_x86_64 -d "$deps" "mujoco==$mujoco_version"
+    wheel_args=(--disable-pip-version-check --only-binary=:all: --implementation cp
+                --python-version "$py" --platform manylinux_2_28_x86_64
+                --platform manylinux_2_27_x86_64 --platform manylinux_2_17_x86_64
+                --platform manylinux2014_x86_64 --platform any -d "$deps")
+    if [[ "$mode" == bundle-gpu ]]; then
+      python3 -m pip download -q "${wheel_args[@]}" "${gpu_wheels[@]}"
+    else
+      python3 -m pip download -q --no-deps "${wheel_args[@]}" "mujoco==$mujoco_version"
+    fi
     du -sh "$deps"
-    echo "bundle: ${#debs[@]} packages and the mujoco wheel for Python $py in $deps; take that folder to the target machine"
+    echo "$mode: ${#debs[@]} packages and the wheels for Python $py in $deps; take that folder to the target machine"
+    ;;
+  split)
+    parts=$(realpath -m "${3:-.parts}")
+    mkdir -p "$parts"
+    rm -f "$parts"/bidex-deps.tar.part*
+    tar -C "$deps" -cf - . | split -b "$part_size" -d - "$parts/bidex-deps.tar.part"
+    ls -l "$parts"
+    echo "split: $(ls "$parts" | wc -l) parts of at most $part_size in $parts; 'join' puts them back"
+    ;;
+  join)
+    parts=$(realpath -m "${2:-.parts}")
+    deps=$(realpath -m "${3:-.deps}")
+    ls "$parts"/bidex-deps.tar.part* >/dev/null 2>&1 || { echo "join: no bidex-deps.tar.part* in $parts" >&2; exit 1; }
+    mkdir -p "$deps"
+    cat "$parts"/bidex-deps.tar.part* | tar -C "$deps" -xf -
+    echo "join: $(ls "$deps" | wc -l) files in $deps"
     ;;
   build)
     build=$(realpath -m "${3:-build}")
@@ -45,21 +75,28 @@ case "$mode" in
     for f in "$deps"/*.deb; do dpkg -x "$f" "$prefix"; done
     # the mujoco wheel for this machine's python3 (a wheel is a zip archive)
     tag=$(python3 -c 'import sys; print("cp%d%d" % sys.version_info[:2])')
+    ver=$(python3 -c 'import sys; print("%d.%d" % sys.version_info[:2])')
     wheel=$(ls "$deps"/mujoco-"$mujoco_version"-"$tag"-*.whl 2>/dev/null | head -1)
-    [[ -n "$wheel" ]] || { echo "build: no mujoco-$mujoco_version-$tag wheel in $deps (bundle with BIDEX_TARGET_PYTHON=$(python3 -c 'import sys; print("%d.%d" % sys.version_info[:2])'))" >&2; exit 1; }
-    python3 -m zipfile -e "$wheel" "$prefix/python"
+    [[ -n "$wheel" ]] || { echo "build: no mujoco-$mujoco_version-$tag wheel in $deps (bundle with BIDEX_TARGET_PYTHON=$ver)" >&2; exit 1; }
+    # the wheels, for this python3, into a private folder (the GPU backend's embedded Python
+    # imports them from there; its path names the Python version that CMake looks for)
+    site="$prefix/python$ver/site-packages"
+    wheels=("$wheel")
+    for w in "$deps"/*.whl; do [[ "$(basename "$w")" == mujoco-"$mujoco_version"-* ]] || wheels+=("$w"); done
+    python3 -m pip install -q --disable-pip-version-check --no-index --no-deps --upgrade \
+      --target "$site" "${wheels[@]}"
     torch_prefix=${BIDEX_TORCH_PREFIX:-$(python3 -c 'import torch; print(torch.utils.cmake_prefix_path)')}
     lib="$prefix/usr/lib/x86_64-linux-gnu"
     link="-Wl,-rpath-link,$lib -Wl,--disable-new-dtags -Wl,-rpath,$lib"
     cmake -S . -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
-      -DCMAKE_PREFIX_PATH="$torch_prefix;$prefix/usr;$lib/cmake;$prefix/usr/share/cmake;$prefix/usr/lib/cmake" \
-      -DBIDEX_MUJOCO_DIR="$prefix/python/mujoco" \
+      -DCMAKE_PREFIX_PATH="$torch_prefix;$prefix/usr;$lib/cmake;$prefix/usr/share/cmake;$prefix/usr/lib/cmake;$site/pybind11" \
+      -DBIDEX_MUJOCO_DIR="$site/mujoco" \
       -DCMAKE_EXE_LINKER_FLAGS="$link" -DCMAKE_SHARED_LINKER_FLAGS="$link" ${BIDEX_CMAKE_ARGS:-}
     cmake --build "$build" ${BIDEX_BUILD_TARGETS:+--target $BIDEX_BUILD_TARGETS}
     echo "build: $build/apps/bidex (data: BIDEX_DATA_DIR=$(pwd) if the tree moves)"
     ;;
   *)
-    sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac

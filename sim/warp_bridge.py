@@ -12,7 +12,8 @@ import mujoco_warp as mjw
 import numpy as np
 import warp as wp
 
-wp.config.quiet = True  # no per-module load messages
+wp.config.quiet = True  # no banner
+wp.config.log_level = wp.LOG_WARNING  # no per-module load messages
 
 # bits of a world's fault word (sim/batch.h FaultBits)
 FAULT_NONFINITE = 1 << 1
@@ -219,8 +220,13 @@ class Bridge:
       fn()  # loads the kernels' modules before the capture
       with wp.ScopedCapture() as cap:
         fn()
-    self.graphs[name] = cap.graph
-    return int(cap.graph.graph_exec.value)
+      graph = cap.graph
+      if graph.graph_exec is None:  # Warp instantiates a graph at its first launch
+        wp.capture_launch(graph)
+        wp.synchronize_device(self.device)
+    self.graphs[name] = graph
+    g = graph.graph_exec
+    return int(g.value if hasattr(g, "value") else g)
 
   def run(self, name):
     """Runs one pass: its graph on a GPU, the Python pass on Warp's CPU device."""

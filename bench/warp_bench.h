@@ -1,0 +1,31 @@
+// GPU backend throughput: bidex's control step on MuJoCo Warp (base forces at the pivots, the
+// per-world fault check, the reset and position passes) against raw MuJoCo Warp (the same
+// substeps of mjw.step alone) on the same scene, world count and inputs, in one run; random
+// inputs written on the device before every step of both.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace bidex::bench {
+
+struct WarpBenchConfig {
+  std::vector<std::string> tasks;          // task ids: each one's scene
+  std::vector<int> worlds{2048, 8192, 16384};
+  std::string device = "cuda";             // a Warp device ("cpu": plumbing only, slow)
+  double min_seconds = 2;                  // timed stepping per measurement (after warm-up)
+  int rounds = 2;                          // alternations of raw and bidex; the best of each kept
+  int warmup_steps = 10;
+  int njmax = 192, nconmax = 64;           // room per world
+  double max_force = 20, max_torque = 2;   // random base inputs (free bases)
+  uint64_t seed = 1;
+  std::string physics_file;                // empty: default
+  bool progress = true;
+};
+
+nlohmann::json run_warp_bench(const WarpBenchConfig& cfg);
+
+}  // namespace bidex::bench
