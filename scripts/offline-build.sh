@@ -5,7 +5,7 @@
 #
 #   scripts/offline-build.sh bundle [DEPS]          # where apt works: the .debs and the wheel (default .deps/)
 #   scripts/offline-build.sh bundle-gpu [DEPS]      # the same plus the GPU backend's wheels
-#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts of at most 60 MB (default .parts/)
+#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts under 60 MB (default .parts/)
 #   scripts/offline-build.sh join  [PARTS] [DEPS]   # on the target: the parts back into DEPS
 #   scripts/offline-build.sh build  [DEPS] [BUILD]  # on the target: unpack, configure, build
 #
@@ -30,7 +30,7 @@ debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen
       libxml2 libicu72 libpng16-16 libpng-dev librandom123-dev)
 
 gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
-part_size=60M
+part_size=${BIDEX_PART_SIZE:-55M}  # MiB: 57.7 MB, under 60 MB with room for a transfer's other files
 
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
