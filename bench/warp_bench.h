@@ -19,7 +19,7 @@ struct WarpBenchConfig {
   double min_seconds = 2;                  // timed stepping per measurement (after warm-up)
   int rounds = 2;                          // alternations of raw and bidex; the best of each kept
   int warmup_steps = 10;
-  int njmax = 192, nconmax = 64;           // room per world
+  int njmax = 0, nconmax = 0;              // room per world (0: the scene's physics)
   double max_force = 20, max_torque = 2;   // random base inputs (free bases)
   uint64_t seed = 1;
   std::string physics_file;                // empty: default

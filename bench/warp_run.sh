@@ -24,5 +24,5 @@ if [[ ! -x "$build/apps/bidex" ]]; then
 fi
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader >"$out/gpu.txt" 2>&1
 "$build/apps/bidex" bench warp --task "$tasks" --worlds "$worlds" ${BIDEX_WARP_ARGS:-} \
-  --out "$out/warp-$(echo "$tasks" | tr ',' '+')-$(echo "$worlds" | tr ',' '+').json"
+  --out "$out/warp-$(echo "$tasks" | tr ',' '.')-$(echo "$worlds" | tr ',' '.').json"
 echo "bench warp: ${SECONDS}s"

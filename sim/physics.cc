@@ -39,7 +39,7 @@ PhysicsOptions load_physics(const std::string& path) {
 PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   n.allow_keys({"timestep", "substeps", "integrator", "solver", "iterations", "tolerance", "cone",
                 "contact_solref", "contact_solimp", "coupling_solref", "coupling_solimp",
-                "gravity_free_hands", "memory", "max_speed"});
+                "gravity_free_hands", "memory", "gpu_njmax", "gpu_nconmax", "max_speed"});
   auto pos_double = [&](const char* key, double& out) {
     if (auto v = n.maybe(key)) {
       double x = v->as<double>();
@@ -59,6 +59,8 @@ PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   pos_int("iterations", o.iterations);
   pos_double("tolerance", o.tolerance);
   pos_int("memory", o.memory);
+  pos_int("gpu_njmax", o.gpu_njmax);
+  pos_int("gpu_nconmax", o.gpu_nconmax);
   pos_double("max_speed", o.max_speed);
   if (auto v = n.maybe("integrator")) {
     o.integrator = v->as<std::string>();

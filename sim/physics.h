@@ -29,6 +29,10 @@ struct PhysicsOptions {
   // bytes of one world's arena (MuJoCo 3's <size memory>): contacts, constraint rows and the
   // solver's scratch; a world that fills it is a fault and a reset
   int memory = 512 << 10;
+  // the GPU backend's room per world (MuJoCo Warp allocates fixed rows): constraint rows and
+  // contacts; a world that needs more is a fault and a reset (sim/README.md)
+  int gpu_njmax = 192;
+  int gpu_nconmax = 64;
   double max_speed = 1000.0;  // a |qvel| above this (m/s or rad/s) is an exploded slot
 
   double control_dt() const { return timestep * substeps; }

@@ -144,6 +144,8 @@ struct WarpBackend::Impl {
 WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
     : model_(&model), nworld_(nworld), options_(std::move(options)), impl_(new Impl) {
   if (nworld < 1) throw Error("GPU backend: nworld must be >= 1, got " + std::to_string(nworld));
+  if (options_.njmax <= 0) options_.njmax = model.physics().gpu_njmax;
+  if (options_.nconmax <= 0) options_.nconmax = model.physics().gpu_nconmax;
   const bool want_gpu = options_.device.rfind("cuda", 0) == 0;
   if (want_gpu && !cuda::driver_available())
     throw DeviceError("--device cuda: no NVIDIA driver on this machine (libcuda.so.1 did not "

@@ -22,10 +22,10 @@ namespace bidex::sim {
 
 struct WarpOptions {
   std::string device = "cuda";  // a Warp device: "cuda", "cuda:1", or "cpu" (tests)
-  // room per world (GPU.md): constraint rows and contacts; a world that needs more is flagged
-  // (kFaultOverflow), reset and counted
-  int njmax = 192;
-  int nconmax = 64;
+  // room per world: constraint rows and contacts (0: the scene's PhysicsOptions gpu_njmax and
+  // gpu_nconmax); a world that needs more is flagged (kFaultOverflow), reset and counted
+  int njmax = 0;
+  int nconmax = 0;
 };
 
 // One world-major array: `rows` worlds of `width` values (float32, or the named integer type).

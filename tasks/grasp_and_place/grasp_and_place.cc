@@ -1,6 +1,7 @@
 // grasp_and_place: Pull a Ball into Bucket / Grasp & Place (the original's
 // ShadowHandGraspAndPlace); defaults in grasp_and_place.yaml, decisions in README.md. The right
 // hand takes the bucket, the left hand the block (or ball), and the two meet.
+#include <algorithm>
 #include <cmath>
 
 #include <mujoco/mujoco.h>
@@ -102,7 +103,11 @@ class GraspAndPlace : public manip::ManipTask {
 
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override {
-    sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+    // up to 203 constraint rows under random actions (bench task, maxuse_efc): more than the
+    // default GPU room of 192, which every world overflowed (bench/results/warp-h100/)
+    sim::PhysicsOptions ph = physics;
+    ph.gpu_njmax = std::max(ph.gpu_njmax, 384);
+    sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
     sb.add_object(manip::table("table", p_.table));
     sim::ObjectSpec b;
     b.name = "bucket";
