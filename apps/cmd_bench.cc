@@ -161,6 +161,9 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--physics", wc->physics_file, "Physics YAML (default: configs/sim/physics.yaml)");
   warp->add_option("--seed", wc->seed, "Seed of the random inputs")->capture_default_str();
+  warp->add_option("--determinism-steps", wc->determinism_steps,
+                   "Steps of two fresh backends compared for bitwise equality, per task (0: skip)")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--out,-o", *warp_out, "Write the JSON here (atomically) instead of stdout");
   warp->footer("Example:\n  bidex bench warp --task catch_underarm --worlds 2048,8192 --seconds 2");
   warp->callback([wc, warp_out] { emit(bench::run_warp_bench(*wc), *warp_out, command_line()); });

@@ -1,6 +1,8 @@
 #include "bench/warp_bench.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "bench/sim_bench.h"
@@ -39,10 +41,39 @@ Rate timed(sim::WarpBackend& w, const WarpBenchConfig& cfg, int64_t& step, F&& p
   return r;
 }
 
+// Two fresh backends of the same scene stepped with the same inputs: are they bitwise equal?
+// (MuJoCo Warp accumulates some sums with atomics, whose order can vary between runs.)
+json determinism(const sim::SimModel& model, const WarpBenchConfig& cfg, int n, int steps) {
+  std::vector<float> q[2];
+  for (auto& qk : q) {
+    sim::WarpOptions o;
+    o.device = cfg.device;
+    o.njmax = cfg.njmax;
+    o.nconmax = cfg.nconmax;
+    sim::WarpBackend w(model, n, o);
+    for (int t = 0; t < steps; ++t) {
+      w.random_inputs(cfg.seed, t, cfg.max_force, cfg.max_torque);
+      w.step();
+      w.reset_begin();
+      w.reset_end();
+    }
+    qk = w.download("qpos");
+  }
+  double max_diff = 0;
+  int64_t differing = 0;
+  for (size_t i = 0; i < q[0].size(); ++i) {
+    const double d = std::abs(double(q[0][i]) - double(q[1][i]));
+    max_diff = std::max(max_diff, d);
+    differing += q[0][i] != q[1][i];
+  }
+  return {{"worlds", n}, {"steps", steps}, {"bitwise_identical", differing == 0},
+          {"qpos_values_differing", differing}, {"qpos_max_abs_diff", max_diff}};
+}
+
 }  // namespace
 
 json run_warp_bench(const WarpBenchConfig& cfg) {
-  json results = json::array();
+  json results = json::array(), determinism_rows = json::array();
   Progress bar("bench warp", static_cast<int64_t>(cfg.tasks.size() * cfg.worlds.size()),
                "measurements");
   int64_t done = 0;
@@ -52,6 +83,11 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
     eo.physics_file = cfg.physics_file;
     tasks::TaskEnv env(tasks::make_task(id, ""), eo);  // the task's scene, compiled once
     const sim::SimModel& model = env.model();
+    if (cfg.determinism_steps > 0) {
+      json d = determinism(model, cfg, std::min(cfg.worlds.front(), 2048), cfg.determinism_steps);
+      d["task"] = env.spec().versioned_id();
+      determinism_rows.push_back(d);
+    }
     for (int n : cfg.worlds) {
       sim::WarpOptions o;
       o.device = cfg.device;
@@ -74,9 +110,11 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
       }
       const int64_t faults0 = w.total_faults(), overflows0 = w.total_overflows();
       Rate best_raw, best_bidex;
+      int64_t checked = 0;  // slot-steps that went through the fault check
       for (int r = 0; r < cfg.rounds; ++r) {
         Rate raw = timed(w, cfg, step, raw_step);
         Rate bx = timed(w, cfg, step, bidex_step);
+        checked += bx.steps * static_cast<int64_t>(n);
         if (raw.per_s() > best_raw.per_s()) best_raw = raw;
         if (bx.per_s() > best_bidex.per_s()) best_bidex = bx;
       }
@@ -96,6 +134,7 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                   {"bidex_slot_steps_per_s", bidex_slot},
                   {"bidex_physics_steps_per_s", bidex_slot * substeps},
                   {"ratio_bidex_to_raw", raw_slot > 0 ? bidex_slot / raw_slot : 0},
+                  {"checked_slot_steps", checked},
                   {"faults", w.total_faults() - faults0},
                   {"overflows", w.total_overflows() - overflows0},
                   {"device_bytes", w.device_bytes()},
@@ -113,7 +152,8 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                    "at the pivots every substep, fault check) plus its reset and position "
                    "passes; random inputs written on the device before each step of both; raw "
                    "and bidex alternate, the best of each kept"},
-          {"results", results}};
+          {"results", results},
+          {"determinism", determinism_rows}};
 }
 
 }  // namespace bidex::bench

@@ -11,7 +11,8 @@ cd "$(dirname "$0")/.."
 packages=(build-essential cmake ninja-build ccache git pkg-config
           python3-venv libtorch-dev libyaml-cpp-dev libsqlite3-dev catch2
           libeigen3-dev libcli11-dev nlohmann-json3-dev
-          libosmesa6-dev libpng-dev)  # headless rendering (sim/render): OSMesa and libpng
+          libosmesa6-dev libpng-dev   # headless rendering (sim/render): OSMesa and libpng
+          python3-dev pybind11-dev)   # the GPU backend embeds Python (sim/warp_backend)
 build_dir=${BIDEX_BUILD_DIR:-build}
 
 if [[ "${1:-}" != "--no-apt" ]]; then
@@ -31,13 +32,18 @@ if [[ "${1:-}" != "--no-apt" ]]; then
   fi
 fi
 
-# MuJoCo from its official wheel, pinned (cmake/BidexMuJoCo.cmake finds it there)
-mujoco_version=3.17.0
+# MuJoCo from its official wheel, pinned (cmake/BidexMuJoCo.cmake finds it there), and the GPU
+# backend's MuJoCo Warp, pinned (its tests run it on Warp's CPU device where there is no GPU)
+wheels=(mujoco==3.17.0 warp-lang==1.19.0 mujoco-warp==4.0.0)
 venv=.venv
-if ! "$venv/bin/python" -c "import importlib.metadata as m, sys; sys.exit(m.version('mujoco') != '$mujoco_version')" 2>/dev/null; then
-  echo "setup: installing mujoco==$mujoco_version into $venv/"
+if ! "$venv/bin/python" - "${wheels[@]}" 2>/dev/null <<'PY'
+import importlib.metadata as m, sys
+sys.exit(any(m.version(n) != v for n, v in (w.split("==") for w in sys.argv[1:])))
+PY
+then
+  echo "setup: installing ${wheels[*]} into $venv/"
   [[ -x "$venv/bin/python" ]] || python3 -m venv "$venv"
-  "$venv/bin/python" -m pip install -q --disable-pip-version-check "mujoco==$mujoco_version"
+  "$venv/bin/python" -m pip install -q --disable-pip-version-check "${wheels[@]}"
 fi
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release ${BIDEX_CMAKE_ARGS:-} >/dev/null
