@@ -17,7 +17,7 @@ cd "$(dirname "$0")/.."
 
 mujoco_version=3.17.0  # as cmake/BidexMuJoCo.cmake
 debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen3-dev
-      libcli11-dev nlohmann-json3-dev
+      libcli11-dev nlohmann-json3-dev librandom123-dev
       # headless rendering (sim/render): OpenGL headers, OSMesa (software llvmpipe, opened at the first render)
       # with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
       libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0
