@@ -22,12 +22,12 @@ cd "$(dirname "$0")/.."
 
 mujoco_version=3.17.0  # as cmake/BidexMuJoCo.cmake
 debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen3-dev
-      libcli11-dev nlohmann-json3-dev
+      libcli11-dev nlohmann-json3-dev librandom123-dev
       # headless rendering (sim/render): OpenGL headers, OSMesa (software llvmpipe, opened at the first render)
       # with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
       libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0
       libosmesa6 libosmesa6-dev libglapi-mesa libllvm15 libz3-4 libedit2 libbsd0 libmd0
-      libxml2 libicu72 libpng16-16 libpng-dev librandom123-dev)
+      libxml2 libicu72 libpng16-16 libpng-dev)
 
 gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
 part_size=${BIDEX_PART_SIZE:-55M}  # MiB: 57.7 MB, under 60 MB with room for a transfer's other files

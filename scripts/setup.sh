@@ -10,7 +10,7 @@ cd "$(dirname "$0")/.."
 
 packages=(build-essential cmake ninja-build ccache git pkg-config
           python3-venv libtorch-dev libyaml-cpp-dev libsqlite3-dev catch2
-          libeigen3-dev libcli11-dev nlohmann-json3-dev
+          libeigen3-dev libcli11-dev nlohmann-json3-dev librandom123-dev
           libosmesa6-dev libpng-dev   # headless rendering (sim/render): OSMesa and libpng
           python3-dev pybind11-dev)   # the GPU backend embeds Python (sim/warp_backend)
 build_dir=${BIDEX_BUILD_DIR:-build}

@@ -74,6 +74,7 @@ SimBatch::SimBatch(const SimModel& model, int nslot, BatchOptions options)
   episode.assign(nslot, -1);
   warnings_seen_.assign(nslot, 0);
   rng_.resize(nslot);
+  for (int s = 0; s < nslot; ++s) rng_[s] = SlotRng::make(seed_, static_cast<uint32_t>(s), 0);
 
   // one mjData per slot; then every slot starts from the initial state
   data_.assign(nslot, nullptr);
@@ -112,7 +113,7 @@ size_t SimBatch::bytes() const {
   BIDEX_BATCH_INPUTS(BIDEX_X)
   BIDEX_BATCH_OUTPUTS(BIDEX_X)
 #undef BIDEX_X
-  b += rng_.size() * sizeof(std::mt19937_64) +
+  b += rng_.size() * sizeof(SlotRng) +
        nslot_ * (sizeof(double) + sizeof(uint32_t) + 2 * sizeof(int64_t) + sizeof(int));
   return b;
 }
@@ -180,10 +181,7 @@ void reset_slot(const SimModel& model, SimBatch& b, int s, bool forward) {
 
   // a new episode: its own random stream
   b.episode[s] += 1;
-  std::seed_seq seq{static_cast<uint32_t>(b.seed_), static_cast<uint32_t>(b.seed_ >> 32),
-                    static_cast<uint32_t>(s), static_cast<uint32_t>(b.episode[s]),
-                    static_cast<uint32_t>(b.episode[s] >> 32)};
-  b.rng_[s].seed(seq);
+  b.rng_[s].rekey(static_cast<uint64_t>(b.episode[s]));
   if (forward) sync_slot(model, b, s);
 }
 
@@ -267,12 +265,12 @@ void random_inputs(const SimModel& model, SimBatch& b, double max_force, double 
     auto& rng = b.rng(s);
     SlotView v = b.slot(s);
     for (int a = 0; a < m->nu; ++a)
-      v.ctrl[a] = uniform(rng, m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
+      v.ctrl[a] = rng.uniform(m->actuator_ctrlrange[2 * a], m->actuator_ctrlrange[2 * a + 1]);
     for (size_t h = 0; h < hands.size(); ++h) {
       double* w = v.base_wrench + h * 6;
       for (int k = 0; k < 6; ++k) {
         double lim = k < 3 ? max_force : max_torque;
-        w[k] = hands[h].free_base ? uniform(rng, -lim, lim) : 0.0;
+        w[k] = hands[h].free_base ? rng.uniform(-lim, lim) : 0.0;
       }
     }
   }

@@ -17,6 +17,7 @@
 #include <random>
 #include <vector>
 
+#include "core/rng.h"
 #include "sim/model.h"
 
 struct mjData_;
@@ -93,8 +94,8 @@ class SimBatch {
   std::vector<int64_t> episode;       // (nslot) resets so far (seeds the random stream)
 
   SlotView slot(int s);
-  // The slot's random stream, seeded from (seed, slot, episode) at every reset.
-  std::mt19937_64& rng(int s) { return rng_[s]; }
+  // The slot's random stream, keyed by (seed, slot, episode) at every reset (core/rng.h).
+  SlotRng& rng(int s) { return rng_[s]; }
   // The MuJoCo data of one slot (for task code that needs MuJoCo functions).
   mjData* data(int s) { return data_[s]; }
   const mjData* data(int s) const { return data_[s]; }
@@ -115,7 +116,7 @@ class SimBatch {
   int threads_ = 1;
   uint64_t seed_ = 0;
   std::vector<mjData*> data_;
-  std::vector<std::mt19937_64> rng_;
+  std::vector<SlotRng> rng_;
   std::vector<int> warnings_seen_;  // (nslot) MuJoCo warning total before the step
 };
 
@@ -136,7 +137,7 @@ void step_slot(const SimModel& model, SimBatch& batch, int slot);
 
 // Puts one slot back to the scene's initial state (hands at their placements, joints at 0 inside
 // their ranges, targets at the current joints, zero velocity), advances its episode counter,
-// reseeds its random stream and writes its output rows.
+// rekeys its random stream and writes its output rows.
 // forward = false leaves the derived quantities and the output rows to a sync_slot call of the
 // caller, who edits the state first (tasks: randomised joints and objects), so the reset runs
 // MuJoCo's forward pass once instead of twice.
@@ -160,8 +161,9 @@ void update_base_wrench(const SimModel& model, mjData* d, const double* wrench);
 // MuJoCo warnings a slot's data has counted; a change across a step is a kFaultMujocoWarn.
 int warning_total(const mjData* d);
 
-// Uniform in [lo, hi) from 53 bits of a slot's stream: the same on every platform (unlike
-// std::uniform_real_distribution), so seeded results do not depend on the standard library.
+// Uniform in [lo, hi) from 53 bits of a caller's stream (random actions, not the slots'): the
+// same on every platform (unlike std::uniform_real_distribution), so seeded results do not
+// depend on the standard library. A slot's stream has its own (SlotRng::uniform).
 double uniform(std::mt19937_64& rng, double lo, double hi);
 
 // Writes uniformly random inputs into every slot's rows from its own stream: actuator targets

@@ -126,19 +126,43 @@ std::unique_ptr<Task> make_catch_task(const TaskSpec& spec, const std::string& c
 
 CatchTask::CatchTask(const TaskSpec& spec, CatchParams params)
     : Task(spec, params.file), p_(std::move(params)) {
-  nobj_ = static_cast<int>(p_.objects.size());
-  if (nobj_ == 1) {
-    t_pose_[0] = spec.term_index("pose");
+  CatchProgram& g = prog_;
+  g.nact = spec.act.dim();
+  g.nobj = static_cast<int>(p_.objects.size());
+  if (g.nobj == 1) {
+    g.t_pose[0] = spec.term_index("pose");
   } else {
-    t_pose_[0] = spec.term_index("pose_object1");
-    t_pose_[1] = spec.term_index("pose_object2");
+    g.t_pose[0] = spec.term_index("pose_object1");
+    g.t_pose[1] = spec.term_index("pose_object2");
   }
+  g.t_bonus = spec.term_index("goal_bonus");
+  g.t_fall = spec.term_index("fall_penalty");
+  g.t_action = spec.term_index("action_penalty");
   // the start positions are the egg's (4 cm semi-axis): a larger object starts higher by the
   // difference, so that no random orientation puts it inside a hand
-  lift_ = std::max(0.0, bounding_radius(p_.object.spec) - 0.04);
-  t_bonus_ = spec.term_index("goal_bonus");
-  t_fall_ = spec.term_index("fall_penalty");
-  t_action_ = spec.term_index("action_penalty");
+  g.lift = std::max(0.0, bounding_radius(p_.object.spec) - 0.04);
+  for (int i = 0; i < g.nobj; ++i)
+    for (int k = 0; k < 3; ++k) {
+      g.obj[i].start[k] = p_.objects[i].start[k];
+      g.obj[i].goal[k] = p_.objects[i].goal[k];
+    }
+  g.object_position_noise = p_.object_position_noise;
+  g.random_object_rotation = p_.random_object_rotation;
+  g.random_goal_rotation = p_.random_goal_rotation;
+  g.hand_dof_noise = p_.hand_dof_noise;
+  g.dist_weight = p_.dist_weight;
+  g.success_tolerance = p_.success_tolerance;
+  g.action_penalty = p_.action_penalty;
+  g.goal_bonus = p_.goal_bonus;
+  g.fall_penalty = p_.fall_penalty;
+  g.drop_height = p_.drop_height;
+  g.max_root_drift = p_.max_root_drift;
+  g.max_palm_drift = p_.max_palm_drift;
+  for (int h = 0; h < 2; ++h)
+    for (int k = 0; k < 3; ++k) {
+      if (!p_.root_anchors.empty()) g.root_anchor[h][k] = p_.root_anchors[h][k];
+      if (!p_.palm_anchors.empty()) g.palm_anchor[h][k] = p_.palm_anchors[h][k];
+    }
 }
 
 namespace {
@@ -152,12 +176,13 @@ sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
   sim::SceneBuilder sb(physics);
   const auto base = spec().free_base ? sim::Base::kFree : sim::Base::kFixed;
   add_two_hands(sb, right_hand, p_.right, p_.left, base);
-  for (int i = 0; i < nobj_; ++i) {
+  const int nobj = prog_.nobj;
+  for (int i = 0; i < nobj; ++i) {
     sim::ObjectSpec o = p_.object.spec;
-    o.name = numbered("object", i, nobj_);
+    o.name = numbered("object", i, nobj);
     o.pose.pos = p_.objects[i].start;
     sb.add_object(o);
-    sim::ObjectSpec g = goal_marker(p_.object, numbered("goal", i, nobj_));
+    sim::ObjectSpec g = goal_marker(p_.object, numbered("goal", i, nobj));
     g.pose.pos = p_.objects[i].goal;
     sb.add_object(g);
   }
@@ -165,99 +190,40 @@ sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
 }
 
 void CatchTask::bind(const sim::SimModel& model) {
-  bind_two_hands(model, p_.force_scale, p_.torque_scale, hands_);
-  obj_.clear();
-  for (int i = 0; i < nobj_; ++i) {
-    const auto* o = model.object(numbered("object", i, nobj_));
-    const auto* g = model.object(numbered("goal", i, nobj_));
+  bind_two_hands(model, p_.force_scale, p_.torque_scale, prog_.hands);
+  const int nobj = prog_.nobj;
+  for (int i = 0; i < nobj; ++i) {
+    const auto* o = model.object(numbered("object", i, nobj));
+    const auto* g = model.object(numbered("goal", i, nobj));
     if (!o || !g || o->qpos_adr < 0 || g->mocap < 0)
       throw ModelError(spec().id + ": the scene lacks its objects or goal markers");
-    obj_.push_back({o->body, o->qpos_adr, g->mocap, model.mj()->body_rootid[o->body]});
+    auto& ob = prog_.obj[i];
+    ob.body = o->body;
+    ob.qpos = o->qpos_adr;
+    ob.mocap = g->mocap;
+    ob.root_tree = model.mj()->body_rootid[o->body];
   }
 }
 
 void CatchTask::reset(TaskSlot& t) const {
-  auto& rng = *t.rng;
-  mjData* d = t.data;
-  // hands: one joint sample for both (as the original), inside the joint ranges
-  randomise_hand_joints(hands_, p_.hand_dof_noise, rng, d, t.state.ctrl);
-  // objects: one position-noise sample and one orientation for all of them
-  double noise[3] = {0, 0, 0};
-  if (p_.object_position_noise > 0)
-    for (double& x : noise) x = p_.object_position_noise * math::uniform(rng, -1, 1);
-  double qo[4] = {1, 0, 0, 0}, qg[4] = {1, 0, 0, 0};
-  if (p_.random_object_rotation) math::random_rotation(qo, rng);
-  if (p_.random_goal_rotation) math::random_rotation(qg, rng);
-  for (int i = 0; i < nobj_; ++i) {
-    double* q = d->qpos + obj_[i].qpos;
-    for (int k = 0; k < 3; ++k) q[k] = p_.objects[i].start[k] + noise[k];
-    q[2] += lift_;
-    for (int k = 0; k < 4; ++k) q[3 + k] = qo[k];
-    auto& goal = t.task->goal[i];
-    for (int k = 0; k < 3; ++k) goal[k] = p_.objects[i].goal[k];
-    for (int k = 0; k < 4; ++k) goal[3 + k] = qg[k];
-    for (int k = 0; k < 3; ++k) d->mocap_pos[3 * obj_[i].mocap + k] = goal[k];
-    for (int k = 0; k < 4; ++k) d->mocap_quat[4 * obj_[i].mocap + k] = goal[3 + k];
-  }
+  catch_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
 }
 
 void CatchTask::apply_actions(const float* a, TaskSlot& t) const {
-  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
+  catch_apply_actions(prog_, a, world_rows(t));
 }
 
 void CatchTask::goal_error(const TaskSlot& t, int i, double* d, double* theta) const {
-  const double* pos = t.state.xpos + 3 * obj_[i].body;
-  const double* quat = t.state.xquat + 4 * obj_[i].body;
-  const auto& g = t.task->goal[i];
-  *d = math::dist3(pos, g.data());
-  *theta = math::rot_distance(quat, g.data() + 3);
+  catch_goal_error(prog_, world_rows(t), *t.task, i, d, theta);
 }
 
 bool CatchTask::evaluate(TaskSlot& t, double* terms) const {
-  const auto& v = t.state;
-  double dsum = 0;
-  bool fell = false;
-  for (int i = 0; i < nobj_; ++i) {
-    double d, theta;
-    goal_error(t, i, &d, &theta);
-    terms[t_pose_[i]] = std::exp(-0.2 * (p_.dist_weight * d + theta));
-    dsum += d;
-    if (v.xpos[3 * obj_[i].body + 2] <= p_.drop_height) fell = true;
-  }
-  // success: the object within tolerance (two objects: the sum of distances)
-  if (dsum < p_.success_tolerance && !t.task->success) {
-    t.task->success = true;
-    if (!t.task->bonus_paid) {
-      terms[t_bonus_] = p_.goal_bonus;
-      t.task->bonus_paid = true;
-    }
-  }
-  double a2 = 0;
-  for (int k = 0; k < spec().act.dim(); ++k) a2 += double(t.task->action[k]) * t.task->action[k];
-  terms[t_action_] = p_.action_penalty * a2;
-  if (fell) terms[t_fall_] = p_.fall_penalty;
-
-  bool drift = false;
-  for (int h = 0; h < 2; ++h) {
-    if (p_.max_root_drift > 0 &&
-        math::dist3(v.xpos + 3 * hands_[h].root_body, p_.root_anchors[h].data()) >= p_.max_root_drift)
-      drift = true;
-    if (p_.max_palm_drift > 0 &&
-        math::dist3(v.xpos + 3 * hands_[h].palm_body, p_.palm_anchors[h].data()) >= p_.max_palm_drift)
-      drift = true;
-  }
-  return fell || drift;
+  return catch_evaluate(prog_, world_rows(t), *t.task, terms);
 }
 
 void CatchTask::observe(const TaskSlot& t, float* obs) const {
-  const auto& v = t.state;
-  float* o = observe_two_hands(hands_, v, t.task->action.data(), obs);
-  for (int i = 0; i < nobj_; ++i) {
-    const int b = obj_[i].body;
-    observe_object(v, b, obj_[i].root_tree, o);
-    observe_goal(t.task->goal[i].data(), v.xquat + 4 * b, o + 13);
-    o += 24;
-  }
+  catch_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 }  // namespace bidex::tasks

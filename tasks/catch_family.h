@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "tasks/catch_body.h"
 #include "tasks/config_fields.h"
 #include "tasks/hands.h"
 #include "tasks/objects.h"
@@ -85,17 +86,12 @@ class CatchTask : public Task {
 
   // Distance and rotation distance of object i to its goal (the reward's d and theta).
   void goal_error(const TaskSlot& slot, int i, double* d, double* theta) const;
+  // What the stage bodies (tasks/catch_body.h) need, complete after bind().
+  const CatchProgram& program() const { return prog_; }
 
  private:
   CatchParams p_;
-  int nobj_ = 1;
-  HandRig hands_[2];
-  struct ObjectSlots {
-    int body = -1, qpos = -1, mocap = -1, root_tree = -1;
-  };
-  std::vector<ObjectSlots> obj_;
-  double lift_ = 0;  // start height added for objects larger than the egg (see README)
-  int t_pose_[2] = {-1, -1}, t_bonus_ = -1, t_fall_ = -1, t_action_ = -1;
+  CatchProgram prog_;
 };
 
 }  // namespace bidex::tasks

@@ -224,10 +224,24 @@ std::string door_mjcf(const HandleParams::Door& d) {
 
 HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
     : Task(spec, params.file), p_(std::move(params)) {
-  t_const_ = spec.term_index("constant");
-  t_right_ = spec.term_index("right_hand");
-  t_left_ = spec.term_index("left_hand");
-  t_goal_ = spec.term_index("goal");
+  HandleProgram& g = prog_;
+  g.t_const = spec.term_index("constant");
+  g.t_right = spec.term_index("right_hand");
+  g.t_left = spec.term_index("left_hand");
+  g.t_goal = spec.term_index("goal");
+  g.pot = p_.kind == HandleParams::Kind::kPot;
+  for (int k = 0; k < 3; ++k) g.goal_pos[k] = g.pot ? p_.pot.goal[k] : p_.door.pos[k];
+  g.start_angle = p_.door.start_angle;
+  g.palm_distance = p_.palm_distance;
+  g.constant = p_.constant;
+  g.goal_weight = p_.goal_weight;
+  g.goal_offset = p_.goal_offset;
+  g.goal_gate = p_.goal_gate;
+  g.success_distance = p_.success_distance;
+  g.success_gap = p_.success_gap;
+  g.success_wider = p_.success_wider;
+  g.drop_height = p_.drop_height;
+  g.max_hand_distance = p_.max_hand_distance;
 }
 
 sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
@@ -266,132 +280,69 @@ sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
 }
 
 void HandleTask::bind(const sim::SimModel& model) {
-  bind_two_hands(model, p_.force_scale, p_.torque_scale, hands_);
+  HandleProgram& g = prog_;
+  bind_two_hands(model, p_.force_scale, p_.torque_scale, g.hands);
   const mjModel* m = model.mj();
   if (p_.kind == HandleParams::Kind::kPot) {
     const auto* o = model.object("pot");
-    const auto* g = model.object("goal");
-    if (!o || !g || o->qpos_adr < 0 || g->mocap < 0)
+    const auto* marker = model.object("goal");
+    if (!o || !marker || o->qpos_adr < 0 || marker->mocap < 0)
       throw ModelError(spec().id + ": the scene lacks its pot or goal marker");
-    body_ = o->body;
-    qpos_ = o->qpos_adr;
-    dof_ = o->dof_adr;
-    mocap_ = g->mocap;
+    g.body = o->body;
+    g.mocap = marker->mocap;
     for (int h = 0; h < 2; ++h) {
-      handle_body_[h] = body_;
-      handle_local_[h][0] = 0;
-      handle_local_[h][1] = h == 0 ? geo::kPotHandleY : -geo::kPotHandleY;
-      handle_local_[h][2] = geo::kPotHandleZ;
+      g.handle_body[h] = g.body;
+      g.handle_local[h][0] = 0;
+      g.handle_local[h][1] = h == 0 ? geo::kPotHandleY : -geo::kPotHandleY;
+      g.handle_local[h][2] = geo::kPotHandleZ;
     }
   } else {
     const auto* o = model.object("door");
     if (!o) throw ModelError(spec().id + ": the scene lacks its door");
-    body_ = o->body;
+    g.body = o->body;
     for (int h = 0; h < 2; ++h) {
       const std::string side = h == 0 ? "right" : "left";
       const int b = mj_name2id(m, mjOBJ_BODY, ("door_" + side + "_leaf").c_str());
       const int j = mj_name2id(m, mjOBJ_JOINT, ("door_" + side + "_hinge").c_str());
       if (b < 0 || j < 0) throw ModelError(spec().id + ": the scene lacks a door leaf");
-      handle_body_[h] = b;
-      hinge_qpos_[h] = m->jnt_qposadr[j];
-      hinge_dof_[h] = m->jnt_dofadr[j];
-      handle_local_[h][0] = geo::kHandleOut;
-      handle_local_[h][1] = (h == 0 ? -1 : 1) * geo::kHandleFromHinge;
-      handle_local_[h][2] = p_.door.handle_height;
+      g.handle_body[h] = b;
+      g.hinge_qpos[h] = m->jnt_qposadr[j];
+      g.hinge_dof[h] = m->jnt_dofadr[j];
+      g.handle_local[h][0] = geo::kHandleOut;
+      g.handle_local[h][1] = (h == 0 ? -1 : 1) * geo::kHandleFromHinge;
+      g.handle_local[h][2] = p_.door.handle_height;
     }
   }
-  root_tree_ = m->body_rootid[body_];
+  g.root_tree = m->body_rootid[g.body];
 }
 
 void HandleTask::reset(TaskSlot& t) const {
-  // the simulation has restored the scene's state: hands at their mounts at rest, the pot at its
-  // start at rest, the leaves closed; the door tasks set their leaves' start angle
-  mjData* d = t.data;
-  auto& goal = t.task->goal[0];
-  if (p_.kind == HandleParams::Kind::kPot) {
-    for (int k = 0; k < 3; ++k) goal[k] = p_.pot.goal[k];
-    goal[3] = 1;
-    goal[4] = goal[5] = goal[6] = 0;
-    for (int k = 0; k < 3; ++k) d->mocap_pos[3 * mocap_ + k] = goal[k];
-  } else {
-    for (int h = 0; h < 2; ++h) {
-      d->qpos[hinge_qpos_[h]] = p_.door.start_angle;
-      d->qvel[hinge_dof_[h]] = 0;
-    }
-    // the door's goal pose is its own fixed pose (its goal is a leaf angle, not a pose)
-    for (int k = 0; k < 3; ++k) goal[k] = p_.door.pos[k];
-    goal[3] = 1;
-    goal[4] = goal[5] = goal[6] = 0;
-  }
+  handle_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
 }
 
 void HandleTask::apply_actions(const float* a, TaskSlot& t) const {
-  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
+  handle_apply_actions(prog_, a, world_rows(t));
 }
 
 void HandleTask::handle_point(const sim::SlotView& v, int h, double* out) const {
-  const int b = handle_body_[h];
-  math::frame_point(out, v.xpos + 3 * b, v.xquat + 4 * b, handle_local_[h]);
+  tasks::handle_point(prog_, world_rows(v), h, out);
 }
 
 double HandleTask::hand_distance(const sim::SlotView& v, int h) const {
-  double hp[3];
-  handle_point(v, h, hp);
-  if (!p_.palm_distance) return tip_distance_sum(hands_[h], v, hp);
-  double palm[3];
-  palm_point(hands_[h], v, palm);
-  return math::dist3(palm, hp);
+  return handle_hand_distance(prog_, world_rows(v), h);
 }
 
 double HandleTask::target_distance(const TaskSlot& t) const {
-  if (p_.kind == HandleParams::Kind::kPot)
-    return math::dist3(t.state.xpos + 3 * body_, t.task->goal[0].data());
-  double r[3], l[3];
-  handle_point(t.state, 0, r);
-  handle_point(t.state, 1, l);
-  return math::dist3(r, l);
+  return handle_target_distance(prog_, world_rows(t), *t.task);
 }
 
 bool HandleTask::evaluate(TaskSlot& t, double* terms) const {
-  const auto& v = t.state;
-  const double dr = hand_distance(v, 0), dl = hand_distance(v, 1);
-  const double dt = target_distance(t);
-  terms[t_const_] = p_.constant;
-  terms[t_right_] = -dr;
-  terms[t_left_] = -dl;
-  const bool gate = p_.goal_gate <= 0 || (dr < p_.goal_gate && dl < p_.goal_gate);
-  terms[t_goal_] = gate ? p_.goal_weight * (p_.goal_offset - dt) : 0.0;
-
-  // success (kept until the reset)
-  bool success;
-  if (p_.kind == HandleParams::Kind::kPot) {
-    success = dt < p_.success_distance;
-  } else {
-    double r[3], l[3];
-    handle_point(v, 0, r);
-    handle_point(v, 1, l);
-    const double gap = std::abs(r[1] - l[1]);
-    success = p_.success_wider ? gap > p_.success_gap : gap < p_.success_gap;
-  }
-  if (success) t.task->success = true;
-
-  // termination: a hand too far from its handle, the pot dropped
-  bool end = p_.max_hand_distance > 0 && (dr >= p_.max_hand_distance || dl >= p_.max_hand_distance);
-  if (p_.kind == HandleParams::Kind::kPot && v.xpos[3 * body_ + 2] <= p_.drop_height) end = true;
-  return end;
+  return handle_evaluate(prog_, world_rows(t), *t.task, terms);
 }
 
 void HandleTask::observe(const TaskSlot& t, float* obs) const {
-  const auto& v = t.state;
-  float* o = observe_two_hands(hands_, v, t.task->action.data(), obs);
-  observe_object(v, body_, root_tree_, o);
-  observe_goal(t.task->goal[0].data(), v.xquat + 4 * body_, o + 13);
-  o += 24;
-  for (int h = 0; h < 2; ++h) {
-    double p[3];
-    handle_point(v, h, p);
-    for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(p[k]);
-  }
+  handle_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 }  // namespace bidex::tasks

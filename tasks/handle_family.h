@@ -11,6 +11,7 @@
 #include <string>
 
 #include "tasks/config_fields.h"
+#include "tasks/handle_body.h"
 #include "tasks/hands.h"
 #include "tasks/task.h"
 
@@ -117,18 +118,15 @@ class HandleTask : public Task {
   // The reward's d_target: pot to goal, or handle to handle.
   double target_distance(const TaskSlot& slot) const;
   // Door leaves' hinge qpos / dof addresses (right, left); -1 for the pot.
-  int hinge_qpos(int h) const { return hinge_qpos_[h]; }
-  int hinge_dof(int h) const { return hinge_dof_[h]; }
-  const HandRig& hand(int h) const { return hands_[h]; }
+  int hinge_qpos(int h) const { return prog_.hinge_qpos[h]; }
+  int hinge_dof(int h) const { return prog_.hinge_dof[h]; }
+  const HandRig& hand(int h) const { return prog_.hands[h]; }
+  // What the stage bodies (tasks/handle_body.h) need, complete after bind().
+  const HandleProgram& program() const { return prog_; }
 
  private:
   HandleParams p_;
-  HandRig hands_[2];
-  int body_ = -1, root_tree_ = -1, qpos_ = -1, dof_ = -1, mocap_ = -1;
-  int handle_body_[2] = {-1, -1};
-  double handle_local_[2][3] = {};
-  int hinge_qpos_[2] = {-1, -1}, hinge_dof_[2] = {-1, -1};
-  int t_const_ = -1, t_right_ = -1, t_left_ = -1, t_goal_ = -1;
+  HandleProgram prog_;
 };
 
 }  // namespace bidex::tasks

@@ -8,20 +8,14 @@
 #include "core/yaml.h"
 #include "tasks/hands.h"
 #include "tasks/math.h"
+#include "tasks/object_body.h"
 
 namespace bidex::tasks {
 
 using Shape = sim::ObjectSpec::Shape;
 
 void observe_object(const sim::SlotView& v, int body, int root_tree, float* out) {
-  double lin[3], ang[3];
-  body_velocity(v, body, root_tree, lin, ang);
-  float* o = out;
-  for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(v.xpos[3 * body + k]);
-  math::put_quat_xyzw(o, v.xquat + 4 * body);
-  o += 4;
-  for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(lin[k]);
-  for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(0.2 * ang[k]);
+  observe_object(world_rows(v), body, root_tree, out);
 }
 
 void add_object_obs(Layout& obs, const std::string& name, const std::string& what) {
@@ -41,12 +35,7 @@ void add_goal_obs(Layout& obs, const std::string& name, const std::string& goal_
 }
 
 void observe_goal(const double* goal, const double* object_quat, float* out) {
-  for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(goal[k]);
-  math::put_quat_xyzw(out + 3, goal + 3);
-  double gc[4], diff[4];
-  math::quat_conj(gc, goal + 3);
-  math::mul_quat(diff, object_quat, gc);
-  math::put_quat_xyzw(out + 7, diff);
+  observe_goal<double, double>(goal, object_quat, out);
 }
 
 double object_volume(const sim::ObjectSpec& o) {

@@ -9,6 +9,7 @@
 
 #include "sim/batch.h"
 #include "sim/scene.h"
+#include "tasks/object_body.h"
 #include "tasks/spec.h"
 
 namespace bidex {

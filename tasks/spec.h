@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "tasks/hand_body.h"
+
 namespace bidex::tasks {
 
 // A named, contiguous range of an observation or action vector.
@@ -85,9 +87,7 @@ struct TaskSpec {
 // the hand slices of the action, for fixed (187 obs / 20 act) or free (199 / 26) bases.
 void add_hand_obs(Layout& obs, const std::string& side, bool free_base);
 void add_hand_act(Layout& act, const std::string& side, bool free_base);
-// Observation widths of one hand block.
-constexpr int kHandObsFixed = 187;
-constexpr int kHandObsFree = 199;
+// Observation widths of one hand block: kHandObsFixed, kHandObsFree (tasks/hand_body.h).
 
 // A spec with its names, age, difficulty, skill and episode length, and the two hand blocks of
 // the observation and the action (fixed or free bases); the task adds its tail, terms, agents.

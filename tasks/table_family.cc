@@ -556,7 +556,7 @@ void TableTask::bind(const sim::SimModel& model) {
 void TableTask::reset(TaskSlot& t) const {
   mjData* d = t.data;
   // hands at their mounts (the simulation's reset); joint noise as the original (0 by default)
-  randomise_hand_joints(hands_, p_.hand_dof_noise, *t.rng, d, t.state.ctrl);
+  randomise_hand_joints(hands_, p_.hand_dof_noise, t);
   // objects start at their scene poses (the simulation's reset, water included); joints: the
   // scissors at reset.joint_angle, the pen closed, both switches off (the original never reset
   // the switches)

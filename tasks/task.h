@@ -4,31 +4,17 @@
 // of any size (or a pack of different tasks) calls them the same way.
 #pragma once
 
-#include <array>
 #include <memory>
-#include <random>
 #include <string>
 
+#include "core/rng.h"
 #include "sim/batch.h"
 #include "sim/scene.h"
+#include "sim/state_view.h"
+#include "tasks/slot_state.h"
 #include "tasks/spec.h"
 
 namespace bidex::tasks {
-
-constexpr int kMaxActions = 64;
-constexpr int kMaxGoals = 2;
-constexpr int kMaxTerms = 16;
-
-// Mutable per-slot task state, beside the simulation state.
-struct SlotState {
-  int progress = 0;          // control steps since the reset
-  bool success = false;      // the success condition held at some step of this episode
-  bool bonus_paid = false;   // the one-off goal bonus of this episode was paid
-  // goal poses: position (3) then orientation (w, x, y, z)
-  std::array<std::array<double, 7>, kMaxGoals> goal{};
-  // this step's actions, clipped to [-1, 1] (zeros right after a reset)
-  std::array<float, kMaxActions> action{};
-};
 
 // What a task's stage functions see of one slot.
 struct TaskSlot {
@@ -36,9 +22,17 @@ struct TaskSlot {
   const sim::SimModel* model = nullptr;
   sim::SlotView state{};          // the slot's rows of the batch arrays (inputs and outputs)
   mjData* data = nullptr;         // MuJoCo data, written by reset only
-  std::mt19937_64* rng = nullptr; // the slot's random stream (reseeded at every reset)
+  SlotRng* rng = nullptr;         // the slot's random stream (rekeyed at every reset)
   SlotState* task = nullptr;
 };
+
+// A slot's rows as a stage body sees them (sim/state_view.h): the batch's rows.
+sim::WorldRows<double> world_rows(const sim::SlotView& v);
+inline sim::WorldRows<double> world_rows(const TaskSlot& t) { return world_rows(t.state); }
+// What a reset body writes: the slot's MuJoCo state and goal markers, and the batch's ctrl row
+// (the next step's input); end_reset then copies that row into the MuJoCo data's ctrl.
+sim::ResetRows<double> reset_rows(TaskSlot& t);
+void end_reset(TaskSlot& t);
 
 class Task {
  public:

@@ -131,10 +131,10 @@ class ReOrientation : public manip::ManipTask {
   void reset(TaskSlot& t) const override {
     auto& rng = *t.rng;
     mjData* d = t.data;
-    randomise_hand_joints(hands_, p_.hand_dof_noise, rng, d, t.state.ctrl);
+    randomise_hand_joints(hands_, p_.hand_dof_noise, t);
     double noise[3] = {0, 0, 0};
     if (p_.object_position_noise > 0)
-      for (double& x : noise) x = p_.object_position_noise * math::uniform(rng, -1, 1);
+      for (double& x : noise) x = p_.object_position_noise * rng.uniform(-1, 1);
     double qo[4] = {1, 0, 0, 0};
     if (p_.random_object_rotation) math::random_rotation(qo, rng);
     for (int i = 0; i < 2; ++i) {

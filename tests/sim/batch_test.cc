@@ -320,7 +320,7 @@ TEST_CASE("the random stream of a slot depends on (seed, slot, episode) only", "
   const SimModel& model = two_hand_model();
   auto draws = [](SimBatch& b, int s) {
     std::vector<uint64_t> out;
-    for (int i = 0; i < 8; ++i) out.push_back(b.rng(s)());
+    for (int i = 0; i < 8; ++i) out.push_back(b.rng(s).next_u64());
     return out;
   };
   SimBatch a(model, 4, {2, 77});
