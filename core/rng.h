@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include <Random123/philox.h>
 
@@ -49,5 +50,6 @@ struct SlotRng {
     return lo + (hi - lo) * u;
   }
 };
+static_assert(std::is_trivially_copyable_v<SlotRng>, "copied to the device as bytes");
 
 }  // namespace bidex

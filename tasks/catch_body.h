@@ -4,6 +4,8 @@
 // program in bind() and calls the bodies with the CPU batch's double rows.
 #pragma once
 
+#include <type_traits>
+
 #include "core/hd.h"
 #include "core/rng.h"
 #include "sim/state_view.h"
@@ -39,6 +41,7 @@ struct CatchProgram {
   double max_root_drift = 0, max_palm_drift = 0;  // 0: off
   double root_anchor[2][3] = {}, palm_anchor[2][3] = {};
 };
+static_assert(std::is_trivially_copyable_v<CatchProgram>, "copied to the device as bytes");
 
 // Distance and rotation distance of object i to its goal (the reward's d and theta).
 template <class Real>

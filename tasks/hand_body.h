@@ -5,6 +5,8 @@
 // reward points, joint resets. Binding a rig is host code (tasks/hands.h).
 #pragma once
 
+#include <type_traits>
+
 #include "core/hd.h"
 #include "core/rng.h"
 #include "sim/state_view.h"
@@ -48,6 +50,7 @@ struct HandRig {
   double force_max = 0;   // N
   double torque_max = 0;  // N m
 };
+static_assert(std::is_trivially_copyable_v<HandRig>, "copied to the device as bytes");
 
 BIDEX_HD inline int hand_actions(const HandRig& r) {
   return r.free_base ? kHandActFree : kHandActFixed;

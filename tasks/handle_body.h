@@ -4,6 +4,8 @@
 // program and calls the bodies with the CPU batch's double rows.
 #pragma once
 
+#include <type_traits>
+
 #include "core/hd.h"
 #include "core/rng.h"
 #include "sim/state_view.h"
@@ -32,6 +34,7 @@ struct HandleProgram {
   bool success_wider = true;
   double drop_height = 0, max_hand_distance = 0;
 };
+static_assert(std::is_trivially_copyable_v<HandleProgram>, "copied to the device as bytes");
 
 // World position of the right (h = 0) or left (h = 1) handle point.
 template <class Real>

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <type_traits>
 
 namespace bidex::tasks {
 
@@ -20,5 +21,6 @@ struct SlotState {
   // this step's actions, clipped to [-1, 1] (zeros right after a reset)
   std::array<float, kMaxActions> action{};
 };
+static_assert(std::is_trivially_copyable_v<SlotState>, "copied to the device as bytes");
 
 }  // namespace bidex::tasks
