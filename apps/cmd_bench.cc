@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
+#include "bench/agree_bench.h"
 #include "bench/pack_bench.h"
 #include "bench/physics_study.h"
 #include "bench/sim_bench.h"
@@ -161,12 +162,34 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--physics", wc->physics_file, "Physics YAML (default: configs/sim/physics.yaml)");
   warp->add_option("--seed", wc->seed, "Seed of the random inputs")->capture_default_str();
+  warp->add_flag("!--no-stages", wc->stages,
+                 "Skip the whole task step (task stages on the GPU, where the task's family has them)");
   warp->add_option("--determinism-steps", wc->determinism_steps,
                    "Steps of two fresh backends compared for bitwise equality, per task (0: skip)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--out,-o", *warp_out, "Write the JSON here (atomically) instead of stdout");
   warp->footer("Example:\n  bidex bench warp --task catch_underarm --worlds 2048,8192 --seconds 2");
   warp->callback([wc, warp_out] { emit(bench::run_warp_bench(*wc), *warp_out, command_line()); });
+
+  // bench agree
+  auto ac = std::make_shared<bench::AgreeBenchConfig>();
+  auto agree_out = std::make_shared<std::string>();
+  auto* agree = bench->add_subcommand(
+      "agree", "CPU path against GPU path: a random policy's episodes on each task, mean return, "
+               "length and success rate of each with standard errors, and whether they agree "
+               "within 4 standard errors + 2% (+0.01 for success)");
+  agree->add_option("--task", ac->tasks, "Task ids")->delimiter(',')->required();
+  agree->add_option("--episodes", ac->episodes, "Finished episodes per side, at least")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  agree->add_option("--slots", ac->slots, "Slots (CPU) and worlds (GPU)")
+      ->check(CLI::PositiveNumber)->capture_default_str();
+  agree->add_option("--threads", ac->threads, "CPU threads (0: all cores)")->capture_default_str();
+  agree->add_option("--device", ac->device, "Warp device: cuda, cuda:N, or cpu")
+      ->capture_default_str();
+  agree->add_option("--seed", ac->seed, "Seed")->capture_default_str();
+  agree->add_option("--out,-o", *agree_out, "Write the JSON here (atomically) instead of stdout");
+  agree->footer("Example:\n  bidex bench agree --task catch_underarm,hand_over --episodes 1000");
+  agree->callback([ac, agree_out] { emit(bench::run_agree_bench(*ac), *agree_out, command_line()); });
 
   // bench physics
   auto ps = std::make_shared<bench::PhysicsStudyConfig>();

@@ -10,6 +10,7 @@
 #include "sim/warp_backend.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
+#include "tasks/warp_env.h"
 
 namespace bidex::bench {
 
@@ -39,6 +40,41 @@ Rate timed(sim::WarpBackend& w, const WarpBenchConfig& cfg, int64_t& step, F&& p
     r.seconds = seconds_since(t0);
   } while (r.seconds < cfg.min_seconds);
   return r;
+}
+
+// The whole task step on the GPU (random actions written on the device, then apply_actions,
+// physics, evaluate, resets, observe) against raw MuJoCo Warp on the same worlds.
+json task_step(const std::string& id, int n, const WarpBenchConfig& cfg) {
+  tasks::WarpEnvOptions o;
+  o.nslot = n;
+  o.seed = cfg.seed;
+  o.device = cfg.device;
+  o.physics_file = cfg.physics_file;
+  tasks::WarpTaskEnv env(tasks::make_task(id, ""), o);
+  sim::WarpBackend& w = env.backend();
+  int64_t step = 0;
+  auto full = [&] {
+    w.random_fill("actions", cfg.seed, step, -1.0f, 1.0f);
+    env.step();
+  };
+  auto raw = [&] { w.raw_step(); };
+  for (int i = 0; i < cfg.warmup_steps; ++i, ++step) full();
+  env.take_stats();
+  Rate best_raw, best_full;
+  for (int r = 0; r < cfg.rounds; ++r) {
+    Rate a = timed(w, cfg, step, raw);
+    Rate b = timed(w, cfg, step, full);
+    if (a.per_s() > best_raw.per_s()) best_raw = a;
+    if (b.per_s() > best_full.per_s()) best_full = b;
+  }
+  const auto st = env.take_stats();
+  const double raw_slot = best_raw.per_s() * n, full_slot = best_full.per_s() * n;
+  return {{"task_slot_steps_per_s", full_slot},
+          {"task_raw_slot_steps_per_s", raw_slot},
+          {"task_ratio_to_raw", raw_slot > 0 ? full_slot / raw_slot : 0},
+          {"task_episodes", st.episodes},
+          {"task_mean_return", st.episodes ? st.return_sum / st.episodes : 0},
+          {"task_faults", st.faults}};
 }
 
 // Two fresh backends of the same scene stepped with the same inputs: are they bitwise equal?
@@ -139,6 +175,13 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                   {"overflows", w.total_overflows() - overflows0},
                   {"device_bytes", w.device_bytes()},
                   {"device_bytes_per_world", static_cast<double>(w.device_bytes()) / n}};
+      if (cfg.stages && tasks::runs_on_warp(env.task())) {
+        w.synchronize();
+        row.update(task_step(id, n, cfg));
+        std::fprintf(stderr, "%s, %d worlds: whole task step %.0f slot-steps/s (ratio %.3f)\n",
+                     id.c_str(), n, row["task_slot_steps_per_s"].get<double>(),
+                     row["task_ratio_to_raw"].get<double>());
+      }
       results.push_back(row);
       if (cfg.progress) bar.update(++done);
       std::fprintf(stderr, "%s, %d worlds: raw %.0f, bidex %.0f slot-steps/s (ratio %.3f)\n",

@@ -22,6 +22,7 @@ struct WarpBenchConfig {
   int njmax = 0, nconmax = 0;              // room per world (0: the scene's physics)
   double max_force = 20, max_torque = 2;   // random base inputs (free bases)
   uint64_t seed = 1;
+  bool stages = true;                      // also the whole task step where its stages run
   int determinism_steps = 50;              // per task: two fresh backends compared (0: skip)
   std::string physics_file;                // empty: default
   bool progress = true;

@@ -51,9 +51,12 @@ void WarpBackend::reset_begin() {}
 void WarpBackend::reset_end() {}
 void WarpBackend::random_inputs(uint64_t, int64_t, double, double) {}
 void WarpBackend::raw_step() {}
+void WarpBackend::random_fill(const std::string&, uint64_t, int64_t, float, float) {}
 void WarpBackend::synchronize() {}
-void WarpBackend::copy_out(const std::string&, void*, size_t) const {}
-void WarpBackend::upload(const std::string&, const std::vector<float>&) {}
+void WarpBackend::download_bytes(const std::string&, void*, size_t) const {}
+void WarpBackend::upload_bytes(const std::string&, const void*, size_t) {}
+WorldArray WarpBackend::allocate(const std::string&, int, size_t) { return {}; }
+uintptr_t WarpBackend::stream() const { return 0; }
 size_t WarpBackend::device_bytes() const { return 0; }
 
 #else
@@ -209,6 +212,14 @@ void WarpBackend::random_inputs(uint64_t seed, int64_t step, double max_force,
                                       static_cast<int>(step & 0x7fffffff), max_force, max_torque);
 }
 
+void WarpBackend::random_fill(const std::string& name, uint64_t seed, int64_t step, float lo,
+                              float hi) {
+  const WorldArray a = array(name);
+  py::gil_scoped_acquire gil;
+  impl_->bridge.attr("random_fill")(name, a.width, static_cast<int>(seed & 0x7fffffff),
+                                    static_cast<int>(step & 0x7fffffff), lo, hi);
+}
+
 void WarpBackend::synchronize() {
   if (impl_->gpu) {
     cuda::synchronize(impl_->stream);
@@ -218,9 +229,8 @@ void WarpBackend::synchronize() {
   impl_->bridge.attr("synchronize")();
 }
 
-void WarpBackend::copy_out(const std::string& name, void* dst, size_t elem_bytes) const {
+void WarpBackend::download_bytes(const std::string& name, void* dst, size_t bytes) const {
   const WorldArray a = array(name);
-  const size_t bytes = static_cast<size_t>(a.rows) * a.width * elem_bytes;
   if (impl_->gpu) {
     cuda::copy_to_host(impl_->stream, dst, a.ptr, bytes);
   } else {
@@ -229,19 +239,26 @@ void WarpBackend::copy_out(const std::string& name, void* dst, size_t elem_bytes
   }
 }
 
-void WarpBackend::upload(const std::string& name, const std::vector<float>& values) {
+void WarpBackend::upload_bytes(const std::string& name, const void* src, size_t bytes) {
   const WorldArray a = array(name);
-  const size_t n = static_cast<size_t>(a.rows) * a.width;
-  if (values.size() != n)
-    throw Error("GPU backend: upload to '" + name + "' needs " + std::to_string(n) +
-                " values, got " + std::to_string(values.size()));
   if (impl_->gpu) {
-    cuda::copy_to_device(impl_->stream, a.ptr, values.data(), n * sizeof(float));
+    cuda::copy_to_device(impl_->stream, a.ptr, src, bytes);
   } else {
     synchronize();
-    std::memcpy(reinterpret_cast<void*>(a.ptr), values.data(), n * sizeof(float));
+    std::memcpy(reinterpret_cast<void*>(a.ptr), src, bytes);
   }
 }
+
+WorldArray WarpBackend::allocate(const std::string& name, int width, size_t elem_bytes) {
+  if (impl_->arrays.count(name))
+    throw Error("GPU backend: an array named '" + name + "' exists already");
+  py::gil_scoped_acquire gil;
+  const auto ptr = impl_->bridge.attr("alloc")(name, static_cast<int64_t>(width * elem_bytes))
+                       .cast<uintptr_t>();
+  return impl_->arrays[name] = {ptr, nworld_, width};
+}
+
+uintptr_t WarpBackend::stream() const { return impl_->gpu ? impl_->stream.stream : 0; }
 
 size_t WarpBackend::device_bytes() const {
   py::gil_scoped_acquire gil;
@@ -249,6 +266,15 @@ size_t WarpBackend::device_bytes() const {
 }
 
 #endif  // BIDEX_WARP
+
+void WarpBackend::upload(const std::string& name, const std::vector<float>& values) {
+  const WorldArray a = array(name);
+  const size_t n = static_cast<size_t>(a.rows) * a.width;
+  if (values.size() != n)
+    throw Error("GPU backend: upload to '" + name + "' needs " + std::to_string(n) +
+                " values, got " + std::to_string(values.size()));
+  upload_bytes(name, values.data(), n * sizeof(float));
+}
 
 std::vector<float> WarpBackend::download(const std::string& name) const {
   return download_as<float>(name);

@@ -72,16 +72,27 @@ class WarpBackend {
   void reset_end();
   // Benchmarks: uniform targets over the control ranges and base forces/torques up to the caps.
   void random_inputs(uint64_t seed, int64_t step, double max_force, double max_torque);
+  // Benchmarks: uniform float32 values in [lo, hi) into an allocated array (random actions).
+  void random_fill(const std::string& name, uint64_t seed, int64_t step, float lo, float hi);
   // Benchmarks: the substeps of raw MuJoCo Warp, without bidex's passes.
   void raw_step();
   // Waits for the queued work.
   void synchronize();
+
+  // A zeroed world-major array of `width` values of `elem_bytes` each, owned by the backend and
+  // named like its own arrays (task state and outputs live beside the physics).
+  WorldArray allocate(const std::string& name, int width, size_t elem_bytes);
+  // The CUDA stream the graphs run on (a CUstream; 0 on Warp's CPU device): kernels launched on
+  // it are ordered with the passes.
+  uintptr_t stream() const;
 
   // Copies between an array and host memory (tests, summaries; waits for the stream).
   std::vector<float> download(const std::string& name) const;
   template <class T>
   std::vector<T> download_as(const std::string& name) const;
   void upload(const std::string& name, const std::vector<float>& values);
+  void upload_bytes(const std::string& name, const void* src, size_t bytes);
+  void download_bytes(const std::string& name, void* dst, size_t bytes) const;
 
   // Faults and overflows over all worlds since construction (copies two arrays to the host).
   int64_t total_faults() const;
@@ -95,14 +106,13 @@ class WarpBackend {
   int nworld_ = 0;
   WarpOptions options_;
   std::unique_ptr<Impl> impl_;
-  void copy_out(const std::string& name, void* dst, size_t elem_bytes) const;
 };
 
 template <class T>
 std::vector<T> WarpBackend::download_as(const std::string& name) const {
   const WorldArray a = array(name);
   std::vector<T> out(static_cast<size_t>(a.rows) * a.width);
-  copy_out(name, out.data(), sizeof(T));
+  download_bytes(name, out.data(), out.size() * sizeof(T));
   return out;
 }
 

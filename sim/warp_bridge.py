@@ -16,6 +16,7 @@ wp.config.quiet = True  # no banner
 wp.config.log_level = wp.LOG_WARNING  # no per-module load messages
 
 # bits of a world's fault word (sim/batch.h FaultBits)
+FAULT_BAD_INPUT = 1 << 0
 FAULT_NONFINITE = 1 << 1
 FAULT_EXPLODED = 1 << 2
 FAULT_OVERFLOW = 1 << 5
@@ -44,6 +45,8 @@ def _base_wrench(
 
 @wp.kernel
 def _check(
+  ctrl: wp.array2d(dtype=float),
+  wrench: wp.array2d(dtype=float),
   qpos: wp.array2d(dtype=float),
   qvel: wp.array2d(dtype=float),
   max_speed: float,
@@ -55,6 +58,13 @@ def _check(
 ):
   w = wp.tid()
   bits = wp.uint32(0)
+  # inputs: MuJoCo Warp clamps a NaN target into the control range, so check them here
+  for i in range(ctrl.shape[1]):
+    if not wp.isfinite(ctrl[w, i]):
+      bits = bits | wp.uint32(FAULT_BAD_INPUT)
+  for i in range(wrench.shape[1]):
+    if not wp.isfinite(wrench[w, i]):
+      bits = bits | wp.uint32(FAULT_BAD_INPUT)
   for i in range(qpos.shape[1]):
     if not wp.isfinite(qpos[w, i]):
       bits = bits | wp.uint32(FAULT_NONFINITE)
@@ -126,6 +136,15 @@ def _random_inputs(
     wrench[w, k] = cap * (2.0 * wp.randf(state) - 1.0)
 
 
+@wp.kernel
+def _random_fill(seed: int, step: int, lo: float, hi: float, out: wp.array2d(dtype=float)):
+  # benchmarks: uniform values in [lo, hi) per world (random actions)
+  w = wp.tid()
+  state = wp.rand_init(seed, w * 7919 + step + 1000003)
+  for k in range(out.shape[1]):
+    out[w, k] = lo + (hi - lo) * wp.randf(state)
+
+
 class Bridge:
   """One scene's worlds on one Warp device."""
 
@@ -169,6 +188,7 @@ class Bridge:
       mjw.forward(self.m, self.d)
       self.reset_mask.zero_()
     self.graphs = {}
+    self.extra = {}
 
   # ---- the passes (captured as graphs on a GPU) ----
 
@@ -182,7 +202,7 @@ class Bridge:
                   inputs=[self.root_body, self.base_wrench, d.xpos, d.xipos, d.xfrc_applied])
       mjw.step(m, d)
     wp.launch(_check, dim=self.nworld,
-              inputs=[d.qpos, d.qvel, self.max_speed, d.overflow, self.fault, self.fault_count,
+              inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow, self.fault, self.fault_count,
                       self.overflow_count, self.reset_mask])
 
   def raw_step(self):
@@ -205,6 +225,12 @@ class Bridge:
     wp.launch(_random_inputs, dim=self.nworld,
               inputs=[seed, step, self.ctrl_lo, self.ctrl_hi, max_force, max_torque, self.d.ctrl,
                       self.base_wrench])
+
+  def random_fill(self, name, width, seed, step, lo, hi):
+    a = self.extra[name]
+    view = wp.array(ptr=a.ptr, dtype=float, shape=(self.nworld, width), device=self.device)
+    wp.launch(_random_fill, dim=self.nworld, inputs=[seed, step, lo, hi, view],
+              device=self.device)
 
   def _reset_inputs(self):
     wp.launch(_reset_inputs, dim=self.nworld,
@@ -241,6 +267,14 @@ class Bridge:
     wp.synchronize_device(self.device)
 
   # ---- what the C++ side reads ----
+
+  def alloc(self, name, width_bytes):
+    """A zeroed (nworld, width_bytes) byte array on the device for the C++ side (task state and
+    outputs); returns its address."""
+    with wp.ScopedDevice(self.device):
+      a = wp.zeros((self.nworld, max(width_bytes, 1)), dtype=wp.uint8)
+    self.extra[name] = a
+    return int(a.ptr)
 
   def arrays(self):
     d = self.d

@@ -25,17 +25,23 @@ void random_actions(std::vector<float>& actions, std::mt19937_64& rng) {
   for (auto& a : actions) a = static_cast<float>(sim::uniform(rng, -1, 1));
 }
 
+std::unique_ptr<sim::SimModel> build_task_model(Task& task, const std::string& hand_file,
+                                                const std::string& physics_file) {
+  sim::HandSpec hand =
+      sim::load_hand_spec(hand_file.empty() ? sim::default_hand_path() : hand_file);
+  sim::PhysicsOptions physics =
+      sim::load_physics(physics_file.empty() ? sim::default_physics_path() : physics_file);
+  auto model = std::make_unique<sim::SimModel>(task.scene(hand, physics).build(
+      task.spec().versioned_id() + " scene (" + task.config_file() + ")"));
+  task.bind(*model);
+  return model;
+}
+
 TaskEnv::TaskEnv(std::unique_ptr<Task> task, const EnvOptions& o) : task_(std::move(task)) {
   if (o.nslot <= 0)
     throw ConfigError("", "nslot", "a slot count > 0", std::to_string(o.nslot));
   const TaskSpec& sp = task_->spec();
-  sim::HandSpec hand =
-      sim::load_hand_spec(o.hand_file.empty() ? sim::default_hand_path() : o.hand_file);
-  sim::PhysicsOptions physics =
-      sim::load_physics(o.physics_file.empty() ? sim::default_physics_path() : o.physics_file);
-  model_ = std::make_unique<sim::SimModel>(
-      task_->scene(hand, physics).build(sp.versioned_id() + " scene (" + task_->config_file() + ")"));
-  task_->bind(*model_);
+  model_ = build_task_model(*task_, o.hand_file, o.physics_file);
   batch_ = std::make_unique<sim::SimBatch>(*model_, o.nslot, sim::BatchOptions{o.threads, o.seed});
 
   nslot_ = o.nslot;

@@ -45,6 +45,11 @@ struct StageProfile {
   double task = 0;     // thread-seconds in evaluate + reset + observe
 };
 
+// The task's scene (hands from `hand_file`, physics from `physics_file`; empty: the defaults),
+// compiled, and the task bound to it.
+std::unique_ptr<sim::SimModel> build_task_model(Task& task, const std::string& hand_file,
+                                                const std::string& physics_file);
+
 // A random policy's actions: every value uniform in [-1, 1], drawn in order from `rng`.
 void random_actions(std::vector<float>& actions, std::mt19937_64& rng);
 

@@ -1,0 +1,232 @@
+#include "tasks/warp_env.h"
+
+#include <cstring>
+
+#include "core/error.h"
+#include "tasks/gpu_families.h"
+
+namespace bidex::tasks {
+
+namespace {
+
+// The stages as a host loop over Warp's CPU-device arrays (the CUDA runner's kernels run the
+// same per-world functions).
+template <class B>
+class HostRunner : public StageRunner {
+ public:
+  explicit HostRunner(const typename B::Program& p) : p_(p) {}
+  void apply(const WorldArrays& a, int n) override {
+#pragma omp parallel for schedule(static)
+    for (int w = 0; w < n; ++w) world_apply<B>(p_, a, w);
+  }
+  void evaluate(const WorldArrays& a, int n) override {
+#pragma omp parallel for schedule(static)
+    for (int w = 0; w < n; ++w) world_evaluate<B>(p_, a, w);
+  }
+  void reset(const WorldArrays& a, int n) override {
+#pragma omp parallel for schedule(static)
+    for (int w = 0; w < n; ++w) world_reset<B>(p_, a, w);
+  }
+  void observe(const WorldArrays& a, int n) override {
+#pragma omp parallel for schedule(static)
+    for (int w = 0; w < n; ++w) world_observe<B>(p_, a, w);
+  }
+
+ private:
+  typename B::Program p_;
+};
+
+std::unique_ptr<StageRunner> make_host_runner(const Task& task) {
+#define BIDEX_X(name, Task_, Program_, prefix)                     \
+  if (auto* t = dynamic_cast<const Task_*>(&task))                 \
+    return std::make_unique<HostRunner<name##Bodies>>(t->program());
+  BIDEX_GPU_FAMILIES(BIDEX_X)
+#undef BIDEX_X
+  return nullptr;
+}
+
+std::string gpu_families() {
+  std::string s;
+#define BIDEX_X(name, Task_, Program_, prefix) s += std::string(s.empty() ? "" : ", ") + #name;
+  BIDEX_GPU_FAMILIES(BIDEX_X)
+#undef BIDEX_X
+  return s;
+}
+
+}  // namespace
+
+bool runs_on_warp(const Task& task) {
+#define BIDEX_X(name, Task_, Program_, prefix) \
+  if (dynamic_cast<const Task_*>(&task)) return true;
+  BIDEX_GPU_FAMILIES(BIDEX_X)
+#undef BIDEX_X
+  return false;
+}
+
+WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
+    : task_(std::move(task)) {
+  if (o.nslot <= 0) throw ConfigError("", "nslot", "a slot count > 0", std::to_string(o.nslot));
+  const TaskSpec& sp = task_->spec();
+  if (!runs_on_warp(*task_))
+    throw Error(sp.id + ": its stages do not run on the GPU backend yet (families there: " +
+                gpu_families() + "); use --device cpu");
+  model_ = build_task_model(*task_, o.hand_file, o.physics_file);
+  sim::WarpOptions wo;
+  wo.device = o.device;
+  backend_ = std::make_unique<sim::WarpBackend>(*model_, o.nslot, wo);
+  nslot_ = o.nslot;
+  runner_ = backend_->on_gpu() ? make_cuda_runner(*task_, backend_->stream())
+                               : make_host_runner(*task_);
+  if (!runner_)
+    throw DeviceError(sp.id + ": this build has no CUDA kernels for the task stages (configure "
+                      "with the CUDA toolkit's nvcc on PATH, BIDEX_CUDA=ON)");
+
+  WorldArrays& a = arrays_;
+  a.obs_dim = sp.obs.dim();
+  a.act_dim = sp.act.dim();
+  a.act_stride = a.act_dim;
+  a.nterms = static_cast<int>(sp.reward_terms.size());
+  a.episode_length = task_->episode_length();
+  a.seed = o.seed;
+  a.obs_clip = TaskEnv::kObsClip;
+  if (a.nterms > kMaxTerms || a.act_dim > kMaxActions)
+    throw Error(sp.id + ": more reward terms or actions than the stages support");
+
+  // the backend's arrays
+  auto f = [&](const char* name, int* width, int per) {
+    const sim::WorldArray w = backend_->array(name);
+    if (width) *width = w.width / per;
+    return reinterpret_cast<float*>(w.ptr);
+  };
+  a.qpos = f("qpos", &a.nq, 1);
+  a.qvel = f("qvel", &a.nv, 1);
+  a.qfrc_actuator = f("qfrc_actuator", nullptr, 1);
+  a.qfrc_constraint = f("qfrc_constraint", nullptr, 1);
+  a.sensordata = f("sensordata", &a.nsensordata, 1);
+  a.xpos = f("xpos", &a.nbody, 3);
+  a.xquat = f("xquat", nullptr, 1);
+  a.cvel = f("cvel", nullptr, 1);
+  a.subtree_com = f("subtree_com", nullptr, 1);
+  a.ctrl = f("ctrl", &a.nu, 1);
+  a.base_wrench = f("base_wrench", &a.nwrench, 1);
+  a.mocap_pos = f("mocap_pos", &a.nmocap, 3);
+  a.mocap_quat = f("mocap_quat", nullptr, 1);
+  a.fault = reinterpret_cast<const uint32_t*>(backend_->array("fault").ptr);
+  a.reset = reinterpret_cast<int32_t*>(backend_->array("reset").ptr);
+
+  // the env's, zeroed, in the backend's memory
+  auto alloc = [&](const char* name, int width, size_t elem) {
+    const sim::WorldArray w = backend_->allocate(name, width, elem);
+    buffers_.push_back({name, {w.ptr, width, elem}});
+    return w.ptr;
+  };
+  a.actions = reinterpret_cast<const float*>(alloc("actions", a.act_dim, sizeof(float)));
+  a.state = reinterpret_cast<SlotState*>(alloc("state", 1, sizeof(SlotState)));
+  a.rng = reinterpret_cast<SlotRng*>(alloc("rng", 1, sizeof(SlotRng)));
+  a.obs = reinterpret_cast<float*>(alloc("obs", a.obs_dim, sizeof(float)));
+  a.final_obs = reinterpret_cast<float*>(alloc("final_obs", a.obs_dim, sizeof(float)));
+  a.reward = reinterpret_cast<float*>(alloc("reward", 1, sizeof(float)));
+  a.terms = reinterpret_cast<float*>(alloc("terms", a.nterms, sizeof(float)));
+  a.terminated = reinterpret_cast<uint8_t*>(alloc("terminated", 1, 1));
+  a.truncated = reinterpret_cast<uint8_t*>(alloc("truncated", 1, 1));
+  a.success = reinterpret_cast<uint8_t*>(alloc("success", 1, 1));
+  a.faulted = reinterpret_cast<uint8_t*>(alloc("faulted", 1, 1));
+  a.ep_return = reinterpret_cast<double*>(alloc("ep_return", 1, sizeof(double)));
+  a.ep_terms = reinterpret_cast<double*>(alloc("ep_terms", a.nterms, sizeof(double)));
+  a.done_return = reinterpret_cast<double*>(alloc("done_return", 1, sizeof(double)));
+  a.done_length = reinterpret_cast<double*>(alloc("done_length", 1, sizeof(double)));
+  a.done_terms = reinterpret_cast<double*>(alloc("done_terms", a.nterms, sizeof(double)));
+  a.done_episodes = reinterpret_cast<int64_t*>(alloc("done_episodes", 1, sizeof(int64_t)));
+  a.done_successes = reinterpret_cast<int64_t*>(alloc("done_successes", 1, sizeof(int64_t)));
+  a.done_terminated = reinterpret_cast<int64_t*>(alloc("done_terminated", 1, sizeof(int64_t)));
+  a.done_truncated = reinterpret_cast<int64_t*>(alloc("done_truncated", 1, sizeof(int64_t)));
+  a.done_faults = reinterpret_cast<int64_t*>(alloc("done_faults", 1, sizeof(int64_t)));
+
+  // per-world random streams keyed like the CPU batch's: (seed, world, episode)
+  std::vector<SlotRng> rng(nslot_);
+  for (int w = 0; w < nslot_; ++w) rng[w] = SlotRng::make(o.seed, static_cast<uint32_t>(w), 0);
+  backend_->upload_bytes("rng", rng.data(), rng.size() * sizeof(SlotRng));
+  reset();
+}
+
+WarpTaskEnv::~WarpTaskEnv() = default;
+
+sim::WorldArray WarpTaskEnv::array(const std::string& name) const {
+  return backend_->array(name);
+}
+
+void WarpTaskEnv::copy(const std::string& name, void* dst, size_t bytes) const {
+  for (const auto& [n, b] : buffers_)
+    if (n == name && bytes != static_cast<size_t>(nslot_) * b.width * b.elem)
+      throw Error("WarpTaskEnv: '" + name + "' holds " + std::to_string(b.elem) +
+                  "-byte values; asked for another size");
+  backend_->download_bytes(name, dst, bytes);
+}
+
+void WarpTaskEnv::reset() {
+  std::vector<int32_t> all(nslot_, 1);
+  backend_->upload_bytes("reset", all.data(), all.size() * sizeof(int32_t));
+  backend_->reset_begin();
+  runner_->reset(arrays_, nslot_);
+  backend_->reset_end();
+  runner_->observe(arrays_, nslot_);
+}
+
+void WarpTaskEnv::step() {
+  runner_->apply(arrays_, nslot_);
+  backend_->step();
+  runner_->evaluate(arrays_, nslot_);
+  backend_->reset_begin();
+  runner_->reset(arrays_, nslot_);
+  backend_->reset_end();
+  runner_->observe(arrays_, nslot_);
+}
+
+void WarpTaskEnv::step(const std::vector<float>& actions) {
+  const size_t n = static_cast<size_t>(nslot_) * arrays_.act_dim;
+  if (actions.size() != n)
+    throw Error(spec().id + ": step expects " + std::to_string(nslot_) + " x " +
+                std::to_string(arrays_.act_dim) + " actions, got " +
+                std::to_string(actions.size()));
+  backend_->upload_bytes("actions", actions.data(), n * sizeof(float));
+  step();
+}
+
+EpisodeStats WarpTaskEnv::take_stats() {
+  EpisodeStats st;
+  const auto ret = download<double>("done_return");
+  const auto len = download<double>("done_length");
+  const auto terms = download<double>("done_terms");
+  const auto eps = download<int64_t>("done_episodes");
+  const auto suc = download<int64_t>("done_successes");
+  const auto term = download<int64_t>("done_terminated");
+  const auto trunc = download<int64_t>("done_truncated");
+  const auto faults = download<int64_t>("done_faults");
+  st.term_sums.assign(arrays_.nterms, 0.0);
+  for (int w = 0; w < nslot_; ++w) {
+    st.episodes += eps[w];
+    st.successes += suc[w];
+    st.terminated += term[w];
+    st.truncated += trunc[w];
+    st.faults += faults[w];
+    st.return_sum += ret[w];
+    st.length_sum += len[w];
+    for (int k = 0; k < arrays_.nterms; ++k) st.term_sums[k] += terms[w * arrays_.nterms + k];
+  }
+  for (const char* name : {"done_return", "done_length", "done_terms", "done_episodes",
+                           "done_successes", "done_terminated", "done_truncated",
+                           "done_faults"}) {
+    for (const auto& [n, b] : buffers_) {
+      if (n != name) continue;
+      std::vector<uint8_t> zero(static_cast<size_t>(nslot_) * b.width * b.elem, 0);
+      backend_->upload_bytes(name, zero.data(), zero.size());
+    }
+  }
+  return st;
+}
+
+#ifndef BIDEX_HAS_CUDA
+std::unique_ptr<StageRunner> make_cuda_runner(const Task&, uintptr_t) { return nullptr; }
+#endif
+
+}  // namespace bidex::tasks

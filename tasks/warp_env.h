@@ -1,0 +1,108 @@
+// WarpTaskEnv: one task on N worlds of the GPU backend (sim/warp_backend.h). The same step as
+// TaskEnv, with every stage on the device: per world (tasks/world_step.h)
+//   1. apply_actions  2. physics (the backend's step graph, with its fault check)
+//   3. evaluate, time limit, finished-episode records  4. reset of finished worlds (the backend's
+//   reset pass, the task's reset body, the position pass)  5. observe
+// Outputs stay in device memory (float32 rows, as TaskEnv's); nothing crosses to the host per
+// step but the launches. On Warp's CPU device the stages run as a host loop over the same
+// arrays (tests). Only families listed in tasks/gpu_families.h run here; others are an error
+// that names them.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "sim/warp_backend.h"
+#include "tasks/env.h"
+#include "tasks/task.h"
+#include "tasks/world_step.h"
+
+namespace bidex::tasks {
+
+struct WarpEnvOptions {
+  int nslot = 1;
+  uint64_t seed = 0;
+  std::string device = "cuda";  // a Warp device: cuda, cuda:N, or cpu (tests)
+  std::string hand_file;        // empty: configs/hands/shadow.yaml
+  std::string physics_file;     // empty: configs/sim/physics.yaml
+};
+
+// The four stages of one family over all worlds (CUDA kernels, or a host loop).
+class StageRunner {
+ public:
+  virtual ~StageRunner() = default;
+  virtual void apply(const WorldArrays& a, int n) = 0;
+  virtual void evaluate(const WorldArrays& a, int n) = 0;
+  virtual void reset(const WorldArrays& a, int n) = 0;
+  virtual void observe(const WorldArrays& a, int n) = 0;
+};
+
+// Whether the task's family has stage bodies on the GPU path (tasks/gpu_families.h).
+bool runs_on_warp(const Task& task);
+
+class WarpTaskEnv {
+ public:
+  // Throws DeviceError when the backend cannot start (see WarpBackend), Error when the task's
+  // family has no GPU stages yet.
+  WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& options);
+  ~WarpTaskEnv();
+  WarpTaskEnv(const WarpTaskEnv&) = delete;
+  WarpTaskEnv& operator=(const WarpTaskEnv&) = delete;
+
+  const TaskSpec& spec() const { return task_->spec(); }
+  const Task& task() const { return *task_; }
+  const sim::SimModel& model() const { return *model_; }
+  sim::WarpBackend& backend() { return *backend_; }
+  bool on_gpu() const { return backend_->on_gpu(); }
+  int nslot() const { return nslot_; }
+  int obs_dim() const { return arrays_.obs_dim; }
+  int act_dim() const { return arrays_.act_dim; }
+  int nterms() const { return arrays_.nterms; }
+
+  // Starts a new episode in every world and writes `obs`.
+  void reset();
+  // One control step of every world with the actions in `actions()` (the caller writes them on
+  // the device first: a policy's output, or upload_actions).
+  void step();
+  // Host actions (nslot x act_dim) copied to the device, then step() (tests, play).
+  void step(const std::vector<float>& actions);
+
+  // The env's arrays on the device (world-major): actions, obs, final_obs, reward, terms (float32);
+  // terminated, truncated, success, faulted (uint8, one per world).
+  sim::WorldArray array(const std::string& name) const;
+  template <class T>
+  std::vector<T> download(const std::string& name) const;
+  // Episodes finished since the last call (copies the per-world records to the host and zeroes
+  // them).
+  EpisodeStats take_stats();
+
+ private:
+  void copy(const std::string& name, void* dst, size_t bytes) const;
+  std::unique_ptr<Task> task_;
+  std::unique_ptr<sim::SimModel> model_;
+  std::unique_ptr<sim::WarpBackend> backend_;
+  std::unique_ptr<StageRunner> runner_;
+  int nslot_ = 0;
+  WorldArrays arrays_{};
+  struct Buffer {
+    uintptr_t ptr = 0;
+    int width = 0;
+    size_t elem = 0;
+  };
+  std::vector<std::pair<std::string, Buffer>> buffers_;
+};
+
+template <class T>
+std::vector<T> WarpTaskEnv::download(const std::string& name) const {
+  const sim::WorldArray a = array(name);
+  std::vector<T> out(static_cast<size_t>(a.rows) * a.width);
+  copy(name, out.data(), out.size() * sizeof(T));
+  return out;
+}
+
+// The CUDA runner of a task (warp_stages.cu); nullptr in a build without CUDA.
+std::unique_ptr<StageRunner> make_cuda_runner(const Task& task, uintptr_t stream);
+
+}  // namespace bidex::tasks
