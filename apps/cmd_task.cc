@@ -16,6 +16,7 @@
 #include "core/progress.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
+#include "tasks/warp_env.h"
 
 namespace bidex::apps {
 
@@ -118,7 +119,7 @@ void add_info_command(CLI::App& app) {
 
 void add_play_command(CLI::App& app) {
   struct Opts {
-    std::string task, policy = "random", config, json_out;
+    std::string task, policy = "random", config, json_out, device = "auto";
     int steps = 300, slots = 16, threads = 0;
     uint64_t seed = 1;
   };
@@ -136,42 +137,71 @@ void add_play_command(CLI::App& app) {
   cmd->add_option("--threads", o->threads, "Threads (0: all cores)")->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed")->capture_default_str();
   cmd->add_option("--config", o->config, "Task YAML (default: the task's own)");
+  cmd->add_option("--device", o->device,
+                  "cpu (MuJoCo, all cores), cuda (MuJoCo Warp on the GPU), or auto: cuda when "
+                  "there is a GPU and the task's stages run there")
+      ->check(CLI::IsMember({"auto", "cpu", "cuda"}))->capture_default_str();
   cmd->add_option("--json", o->json_out, "Also write the statistics as JSON to this file");
   cmd->footer("Example:\n  bidex play --task catch_underarm --policy random --steps 300");
   cmd->callback([o] {
-    tasks::EnvOptions eo;
-    eo.nslot = o->slots;
-    eo.threads = o->threads;
-    eo.seed = o->seed;
-    tasks::TaskEnv env(tasks::make_task(o->task, o->config), eo);
-    const auto& sp = env.spec();
-    std::printf("%s: %d slots, %d threads, %s policy, %d steps, config %s\n",
-                sp.versioned_id().c_str(), env.nslot(), env.threads(), o->policy.c_str(), o->steps,
-                env.task().config_file().c_str());
-    const int nt = env.nterms();
+    auto task = tasks::make_task(o->task, o->config);
+    std::string why;
+    const std::string device = tasks::choose_device(o->device, *task, &why);
+    // the two paths behind one loop: step with host actions, then read terms and rewards
+    std::unique_ptr<tasks::TaskEnv> cpu;
+    std::unique_ptr<tasks::WarpTaskEnv> gpu;
+    if (device == "cuda") {
+      tasks::WarpEnvOptions wo;
+      wo.nslot = o->slots;
+      wo.seed = o->seed;
+      gpu = std::make_unique<tasks::WarpTaskEnv>(std::move(task), wo);
+    } else {
+      tasks::EnvOptions eo;
+      eo.nslot = o->slots;
+      eo.threads = o->threads;
+      eo.seed = o->seed;
+      cpu = std::make_unique<tasks::TaskEnv>(std::move(task), eo);
+    }
+    const tasks::TaskSpec& sp = cpu ? cpu->spec() : gpu->spec();
+    const int nslot = o->slots, nt = cpu ? cpu->nterms() : gpu->nterms();
+    const int act_dim = cpu ? cpu->act_dim() : gpu->act_dim();
+    const std::string config_file = cpu ? cpu->task().config_file() : gpu->task().config_file();
+    std::printf("%s: %d slots on %s (%s), %s policy, %d steps, config %s\n",
+                sp.versioned_id().c_str(), nslot,
+                cpu ? ("the CPU, " + std::to_string(cpu->threads()) + " threads").c_str()
+                    : "the GPU (MuJoCo Warp)",
+                why.c_str(), o->policy.c_str(), o->steps, config_file.c_str());
     // per term (and the reward as the last column): sum, sum of squares, min, max
     std::vector<double> sum(nt + 1, 0), sq(nt + 1, 0), lo(nt + 1, INFINITY), hi(nt + 1, -INFINITY);
-    std::vector<float> actions(static_cast<size_t>(env.nslot()) * env.act_dim(), 0.f);
+    std::vector<float> actions(static_cast<size_t>(nslot) * act_dim, 0.f), terms, reward;
     std::mt19937_64 rng(o->seed);
-    Progress bar("play", static_cast<int64_t>(o->steps) * env.nslot(), "slot-steps");
+    Progress bar("play", static_cast<int64_t>(o->steps) * nslot, "slot-steps");
     for (int i = 0; i < o->steps; ++i) {
       if (o->policy == "random") tasks::random_actions(actions, rng);
-      env.step(actions);
-      for (int s = 0; s < env.nslot(); ++s)
+      if (cpu) {
+        cpu->step(actions);
+        terms = cpu->terms;
+        reward = cpu->reward;
+      } else {
+        gpu->step(actions);
+        terms = gpu->download<float>("terms");
+        reward = gpu->download<float>("reward");
+      }
+      for (int s = 0; s < nslot; ++s)
         for (int k = 0; k <= nt; ++k) {
-          const double x = k < nt ? env.terms[static_cast<size_t>(s) * nt + k] : env.reward[s];
+          const double x = k < nt ? terms[static_cast<size_t>(s) * nt + k] : reward[s];
           sum[k] += x;
           sq[k] += x * x;
           lo[k] = std::min(lo[k], x);
           hi[k] = std::max(hi[k], x);
         }
-      bar.update(static_cast<int64_t>(i + 1) * env.nslot());
+      bar.update(static_cast<int64_t>(i + 1) * nslot);
     }
     bar.finish();
-    const double n = static_cast<double>(o->steps) * env.nslot();
-    auto ep = env.take_stats();
-    json out = {{"task", sp.versioned_id()}, {"policy", o->policy}, {"slots", env.nslot()},
-                {"steps", o->steps}, {"seed", o->seed}};
+    const double n = static_cast<double>(o->steps) * nslot;
+    auto ep = cpu ? cpu->take_stats() : gpu->take_stats();
+    json out = {{"task", sp.versioned_id()}, {"policy", o->policy}, {"slots", nslot},
+                {"steps", o->steps}, {"seed", o->seed}, {"device", device}};
     std::printf("\nper slot-step (%.0f of them):\n  %-16s %11s %11s %11s %11s %14s\n", n, "term",
                 "mean", "std", "min", "max", "episode mean");
     for (int k = 0; k <= nt; ++k) {

@@ -3,6 +3,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "sim/cuda_driver.h"
 #include "tasks/gpu_families.h"
 
 namespace bidex::tasks {
@@ -61,6 +62,29 @@ bool runs_on_warp(const Task& task) {
   BIDEX_GPU_FAMILIES(BIDEX_X)
 #undef BIDEX_X
   return false;
+}
+
+std::string choose_device(const std::string& requested, const Task& task, std::string* why) {
+  auto say = [&](const std::string& s) {
+    if (why) *why = s;
+  };
+  if (requested == "cpu" || requested == "cuda") {
+    say("as asked");
+    return requested;
+  }
+  if (requested != "auto")
+    throw ConfigError("", "--device", "auto, cpu or cuda", requested);
+  if (!sim::warp_built()) {
+    say("this build has no GPU backend");
+  } else if (!sim::cuda::driver_available()) {
+    say("no NVIDIA driver");
+  } else if (!runs_on_warp(task)) {
+    say(task.spec().id + "'s stages do not run on the GPU yet");
+  } else {
+    say("a GPU driver and MuJoCo Warp's backend are present");
+    return "cuda";
+  }
+  return "cpu";
 }
 
 WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)

@@ -42,6 +42,12 @@ class StageRunner {
 // Whether the task's family has stage bodies on the GPU path (tasks/gpu_families.h).
 bool runs_on_warp(const Task& task);
 
+// The device a command runs a task on: "cpu" or "cuda" as asked, or for "auto" cuda when this
+// build has the GPU backend, the NVIDIA driver loads and the task's stages run there, else cpu.
+// `why` (optional) gets a short reason for the choice. Throws ConfigError for another value.
+std::string choose_device(const std::string& requested, const Task& task,
+                          std::string* why = nullptr);
+
 class WarpTaskEnv {
  public:
   // Throws DeviceError when the backend cannot start (see WarpBackend), Error when the task's

@@ -7,6 +7,7 @@
 #include <catch2/catch.hpp>
 #include <nlohmann/json.hpp>
 
+#include "sim/cuda_driver.h"
 #include "tests/run_command.h"
 #include "tests/tasks/task_fixture.h"
 
@@ -88,6 +89,28 @@ TEST_CASE("bidex play writes its statistics as JSON", "[tasks][apps]") {
                         "action_penalty", "reward (sum)"})
     CHECK(j.at("terms").contains(t));
   CHECK(j.at("episodes").at("faults") == 0);
+}
+
+TEST_CASE("bidex play picks its device and says why; a GPU it cannot have is a clear error",
+          "[tasks][apps]") {
+  // auto: pen's stages do not run on the GPU, so the CPU, whatever the machine has
+  CommandResult r = bidex_run("play --task pen --policy zero --steps 2 --slots 2 --json /dev/null");
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(contains(r.out, "on the CPU"));
+  if (!sim::cuda::driver_available()) {
+    CommandResult g = bidex_run("play --task hand_over --steps 2 --slots 2 --device cuda");
+    INFO(g.out);
+    CHECK(g.rc == 2);
+    CHECK(contains(g.out, "no NVIDIA driver"));
+    CHECK(contains(g.out, "--device cpu"));
+    CommandResult a = bidex_run("play --task hand_over --policy zero --steps 2 --slots 2");
+    CHECK(a.rc == 0);
+    CHECK(contains(a.out, "on the CPU"));
+  }
+  CommandResult bad = bidex_run("play --task hand_over --steps 2 --device gpu");
+  CHECK(bad.rc != 0);
+  CHECK(contains(bad.out, "gpu not in {auto,cpu,cuda}"));
 }
 
 TEST_CASE("bidex play with an unknown task or a bad YAML exits 2 naming the problem",
