@@ -222,6 +222,10 @@ void add_play_command(CLI::App& app) {
                 static_cast<long long>(ep.truncated), eps ? ep.return_sum / eps : NAN,
                 eps ? ep.length_sum / eps : NAN, eps ? ep.successes / eps : NAN,
                 static_cast<long long>(ep.faults));
+    if (gpu && !gpu->backend().room_advice().empty()) {
+      std::printf("%s\n", gpu->backend().room_advice().c_str());
+      out["room_advice"] = gpu->backend().room_advice();
+    }
     out["episodes"] = {{"count", ep.episodes}, {"terminated", ep.terminated},
                        {"truncated", ep.truncated}, {"faults", ep.faults},
                        {"mean_return", eps ? ep.return_sum / eps : 0.0},

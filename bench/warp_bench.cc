@@ -173,6 +173,7 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                   {"checked_slot_steps", checked},
                   {"faults", w.total_faults() - faults0},
                   {"overflows", w.total_overflows() - overflows0},
+                  {"room_advice", w.room_advice()},
                   {"device_bytes", w.device_bytes()},
                   {"device_bytes_per_world", static_cast<double>(w.device_bytes()) / n}};
       if (cfg.stages && tasks::runs_on_warp(env.task())) {

@@ -292,6 +292,15 @@ int64_t WarpBackend::total_overflows() const {
   return n;
 }
 
+std::string WarpBackend::room_advice() const {
+  const int64_t n = total_overflows();
+  if (n == 0) return "";
+  return std::to_string(n) + " steps of worlds overflowed their room on the GPU (" +
+         std::to_string(options_.njmax) + " constraint rows, " + std::to_string(options_.nconmax) +
+         " contacts per world; each was reset): raise gpu_njmax or gpu_nconmax in the physics "
+         "YAML (configs/sim/physics.yaml, or the task's scene)";
+}
+
 namespace {
 template <class T>
 T* at(const WorldArray& a, int world) {

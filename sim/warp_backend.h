@@ -97,6 +97,9 @@ class WarpBackend {
   // Faults and overflows over all worlds since construction (copies two arrays to the host).
   int64_t total_faults() const;
   int64_t total_overflows() const;
+  // Empty when no world overflowed its room; else a line saying how many overflows there were
+  // and which physics settings to raise (gpu_njmax, gpu_nconmax).
+  std::string room_advice() const;
   // Bytes Warp holds on the device (0 on the CPU device).
   size_t device_bytes() const;
 

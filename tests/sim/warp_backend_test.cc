@@ -95,6 +95,7 @@ TEST_CASE("WarpBackend steps like the CPU batch from the same state and inputs",
   CHECK(std::abs(qpos[m->nq + bx] - batch.qpos[m->nq + bx]) < 1e-4);
   CHECK(std::abs(qpos[bx]) < 1e-5);                      // the other world's did not
   CHECK(w.total_faults() == 0);
+  CHECK(w.room_advice().empty());
 }
 
 TEST_CASE("WarpBackend flags a non-finite world, resets it alone and counts it", "[warp]") {
@@ -142,6 +143,9 @@ TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") 
   CHECK((fault[0] & kFaultOverflow) != 0);
   CHECK((fault[1] & kFaultOverflow) != 0);
   CHECK(w.total_overflows() == 2);
+  CHECK_THAT(w.room_advice(), Catch::Contains("2 steps of worlds overflowed") &&
+                                  Catch::Contains("4 constraint rows") &&
+                                  Catch::Contains("raise gpu_njmax or gpu_nconmax"));
 }
 
 TEST_CASE("WarpBackend says what is missing when asked for a GPU it cannot have", "[warp]") {
