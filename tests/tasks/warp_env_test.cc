@@ -39,7 +39,8 @@ double max_abs_diff(const std::vector<float>& a, const std::vector<float>& b) {
 }  // namespace
 
 TEST_CASE("WarpTaskEnv resets like TaskEnv: same streams, same first observations", "[warp]") {
-  for (const char* id : {"catch_underarm", "door_open_outward"}) {
+  // one task of each family on the GPU path
+  for (const char* id : {"catch_underarm", "door_open_outward", "push_block", "re_orientation"}) {
     INFO(id);
     TaskEnv cpu(make_task(id, ""), cpu_env(4, 3));
     WarpTaskEnv gpu(make_task(id, ""), cpu_warp(4, 3));
@@ -115,7 +116,8 @@ TEST_CASE("WarpTaskEnv ends a faulted world's episode, resets it alone, keeps st
 TEST_CASE("WarpTaskEnv names the families it runs when a task has no GPU stages", "[warp]") {
   CHECK_THROWS_WITH(WarpTaskEnv(make_task("pen", ""), cpu_warp(2, 1)),
                     Catch::Contains("pen: its stages do not run on the GPU backend yet") &&
-                        Catch::Contains("Catch, Handle") && Catch::Contains("--device cpu"));
+                        Catch::Contains("Catch, Handle, BottleCap, PushBlock") &&
+                        Catch::Contains("--device cpu"));
 }
 
 }  // namespace bidex::tasks
