@@ -8,6 +8,7 @@
 #include "tasks/handle_body.h"
 #include "tasks/push_block/push_block_body.h"
 #include "tasks/re_orientation/re_orientation_body.h"
+#include "tasks/table_body.h"
 
 namespace bidex::tasks {
 
@@ -32,6 +33,7 @@ BIDEX_BODY_CHECK(PushBlockProgram, push_block_)
 BIDEX_BODY_CHECK(ReOrientationProgram, re_orientation_)
 BIDEX_BODY_CHECK(BlockStackProgram, block_stack_)
 BIDEX_BODY_CHECK(GraspAndPlaceProgram, grasp_and_place_)
+BIDEX_BODY_CHECK(TableProgram, table_)
 
 #undef BIDEX_BODY_CHECK
 

@@ -13,6 +13,7 @@
 #include "tasks/handle_family.h"
 #include "tasks/push_block/push_block.h"
 #include "tasks/re_orientation/re_orientation.h"
+#include "tasks/table_family.h"
 
 #define BIDEX_GPU_FAMILIES(X)                                              \
   X(Catch, CatchTask, CatchProgram, catch_)                                \
@@ -21,7 +22,8 @@
   X(PushBlock, PushBlock, PushBlockProgram, push_block_)                   \
   X(ReOrientation, ReOrientation, ReOrientationProgram, re_orientation_)   \
   X(BlockStack, BlockStack, BlockStackProgram, block_stack_)               \
-  X(GraspAndPlace, GraspAndPlace, GraspAndPlaceProgram, grasp_and_place_)
+  X(GraspAndPlace, GraspAndPlace, GraspAndPlaceProgram, grasp_and_place_) \
+  X(Table, TableTask, TableProgram, table_)
 
 namespace bidex::tasks {
 
