@@ -95,7 +95,7 @@ BIDEX_HD void catch_apply_actions(const CatchProgram& p, const float* a,
 // After physics: the reward terms, success; returns whether the episode terminated.
 template <class Real>
 BIDEX_HD bool catch_evaluate(const CatchProgram& p, const sim::WorldRows<Real>& w, SlotState& st,
-                             Real* terms) {
+                             SlotRng&, Real* terms) {
   Real dsum = 0;
   bool fell = false;
   for (int i = 0; i < p.nobj; ++i) {

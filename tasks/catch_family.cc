@@ -219,7 +219,7 @@ void CatchTask::goal_error(const TaskSlot& t, int i, double* d, double* theta) c
 }
 
 bool CatchTask::evaluate(TaskSlot& t, double* terms) const {
-  return catch_evaluate(prog_, world_rows(t), *t.task, terms);
+  return catch_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
 }
 
 void CatchTask::observe(const TaskSlot& t, float* obs) const {

@@ -6,14 +6,24 @@
 #pragma once
 
 #include "core/hd.h"
-#include "tasks/catch_body.h"
+#include "tasks/block_stack/block_stack.h"
+#include "tasks/bottle_cap/bottle_cap.h"
 #include "tasks/catch_family.h"
-#include "tasks/handle_body.h"
+#include "tasks/grasp_and_place/grasp_and_place.h"
 #include "tasks/handle_family.h"
+#include "tasks/push_block/push_block.h"
+#include "tasks/re_orientation/re_orientation.h"
+#include "tasks/table_family.h"
 
-#define BIDEX_GPU_FAMILIES(X)                \
-  X(Catch, CatchTask, CatchProgram, catch_)  \
-  X(Handle, HandleTask, HandleProgram, handle_)
+#define BIDEX_GPU_FAMILIES(X)                                              \
+  X(Catch, CatchTask, CatchProgram, catch_)                                \
+  X(Handle, HandleTask, HandleProgram, handle_)                            \
+  X(BottleCap, BottleCap, BottleCapProgram, bottle_cap_)                   \
+  X(PushBlock, PushBlock, PushBlockProgram, push_block_)                   \
+  X(ReOrientation, ReOrientation, ReOrientationProgram, re_orientation_)   \
+  X(BlockStack, BlockStack, BlockStackProgram, block_stack_)               \
+  X(GraspAndPlace, GraspAndPlace, GraspAndPlaceProgram, grasp_and_place_) \
+  X(Table, TableTask, TableProgram, table_)
 
 namespace bidex::tasks {
 
@@ -33,8 +43,8 @@ namespace bidex::tasks {
     }                                                                                         \
     template <class R>                                                                        \
     BIDEX_HD static bool evaluate(const Program& p, const sim::WorldRows<R>& w, SlotState& st, \
-                                  R* terms) {                                                 \
-      return prefix##evaluate(p, w, st, terms);                                               \
+                                  SlotRng& rng, R* terms) {                                   \
+      return prefix##evaluate(p, w, st, rng, terms);                                          \
     }                                                                                         \
     template <class R>                                                                        \
     BIDEX_HD static void observe(const Program& p, const sim::WorldRows<R>& w,                \

@@ -99,7 +99,7 @@ BIDEX_HD void handle_apply_actions(const HandleProgram& p, const float* a,
 // r = constant - d_right - d_left + goal_weight (goal_offset - d_target); success; termination.
 template <class Real>
 BIDEX_HD bool handle_evaluate(const HandleProgram& p, const sim::WorldRows<Real>& w,
-                              SlotState& st, Real* terms) {
+                              SlotState& st, SlotRng&, Real* terms) {
   const Real dr = handle_hand_distance(p, w, 0), dl = handle_hand_distance(p, w, 1);
   const Real dt = handle_target_distance(p, w, st);
   terms[p.t_const] = Real(p.constant);

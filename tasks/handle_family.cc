@@ -338,7 +338,7 @@ double HandleTask::target_distance(const TaskSlot& t) const {
 }
 
 bool HandleTask::evaluate(TaskSlot& t, double* terms) const {
-  return handle_evaluate(prog_, world_rows(t), *t.task, terms);
+  return handle_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
 }
 
 void HandleTask::observe(const TaskSlot& t, float* obs) const {

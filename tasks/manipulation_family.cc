@@ -145,26 +145,8 @@ sim::SceneBuilder ManipTask::scene_with_hands(const sim::HandSpec& right_hand,
   return sb;
 }
 
-void ManipTask::bind_hands(const sim::SimModel& model) {
-  bind_two_hands(model, c_.force_scale, c_.torque_scale, hands_);
-}
-
-void ManipTask::apply_actions(const float* a, TaskSlot& t) const {
-  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
-}
-
-float* ManipTask::observe_hands(const TaskSlot& t, float* obs) const {
-  return observe_two_hands(hands_, t.state, t.task->action.data(), obs);
-}
-
-double ManipTask::action_sq(const TaskSlot& t) const {
-  double a2 = 0;
-  for (int k = 0; k < spec().act.dim(); ++k) a2 += double(t.task->action[k]) * t.task->action[k];
-  return a2;
-}
-
-void body_point(const sim::SlotView& v, int body, const double* local, double* out) {
-  math::frame_point(out, v.xpos + 3 * body, v.xquat + 4 * body, local);
+void ManipTask::bind_hands(const sim::SimModel& model, HandRig (&hands)[2]) const {
+  bind_two_hands(model, c_.force_scale, c_.torque_scale, hands);
 }
 
 const sim::ObjectIndex& object_index(const sim::SimModel& model, const std::string& task,

@@ -70,36 +70,24 @@ std::string geom(const std::string& name, const std::string& type, const std::st
 // (w, x, y, z) of R = Rz(yaw) Ry(pitch) Rx(roll).
 sim::Quat quat_rpy(const sim::Vec3& rpy);
 
-// Base of the family's tasks: two free-base hands placed by the YAML, the paper's action
-// order, the hand blocks of the observation, contact buffers widened for two objects.
+// Base of the family's tasks: two free-base hands placed by the YAML. Each task's stages are
+// the bodies of its program (tasks/<id>/<id>_body.h), which holds both hands' rigs (the paper's
+// action order and the hand blocks of the observation, tasks/hand_body.h).
 class ManipTask : public Task {
  public:
   ManipTask(const TaskSpec& spec, CommonParams common);
   int episode_length() const override { return c_.episode_length; }
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  const HandRig& hand(int h) const { return hands_[h]; }  // 0 right, 1 left
   const CommonParams& common() const { return c_; }
 
  protected:
-  // Hands placed, physics buffers widened (see manipulation_family.cc).
+  // Hands placed at their mounts.
   sim::SceneBuilder scene_with_hands(const sim::HandSpec& right_hand,
                                      const sim::PhysicsOptions& physics) const;
-  void bind_hands(const sim::SimModel& model);
-  // Writes both hand blocks; returns where the task tail starts.
-  float* observe_hands(const TaskSlot& slot, float* obs) const;
-  // Sum of squared clipped actions of this step.
-  double action_sq(const TaskSlot& slot) const;
+  // Both hands' rigs (right, left) with the YAML's base scales.
+  void bind_hands(const sim::SimModel& model, HandRig (&hands)[2]) const;
 
   CommonParams c_;
-  HandRig hands_[2];
 };
-
-// World position of `local` in body b's frame.
-void body_point(const sim::SlotView& v, int body, const double* local, double* out);
-// Writes 3 floats.
-inline void put3(float* out, const double* p) {
-  for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(p[k]);
-}
 // Object index of a named object in a compiled scene (throws ModelError when absent).
 const sim::ObjectIndex& object_index(const sim::SimModel& model, const std::string& task,
                                      const std::string& name);

@@ -123,6 +123,12 @@ BIDEX_HD inline void frame_point(T* out, const T* pos, const T* quat, const T* l
   for (int k = 0; k < 3; ++k) out[k] += pos[k];
 }
 
+// An observation's vector: 3 values as floats.
+template <class T>
+BIDEX_HD inline void put_vec3(float* out, const T* v) {
+  for (int k = 0; k < 3; ++k) out[k] = static_cast<float>(v[k]);
+}
+
 // An observation's quaternion: (w, x, y, z) written as (x, y, z, w), the original's order.
 template <class T>
 BIDEX_HD inline void put_quat_xyzw(float* out, const T* q) {

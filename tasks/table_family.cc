@@ -318,23 +318,30 @@ void quat_axis(double* q, int axis, double angle) {
   math::axis_angle_quat(q, a, angle);
 }
 
-// The pose of a child frame at `local` (position) and `lq` (orientation) under (pos, quat).
-void child_frame(const double* pos, const double* quat, const double* local, const double* lq,
-                 double* out_pos, double* out_quat) {
-  math::frame_point(out_pos, pos, quat, local);
-  math::mul_quat(out_quat, quat, lq);
-}
-
 }  // namespace
 
 // ---- task ---------------------------------------------------------------------------------
 
 TableTask::TableTask(TableKind kind, const TaskSpec& spec, TableParams params)
     : Task(spec, params.file), kind_(kind), p_(std::move(params)) {
-  t_offset_ = spec.term_index("offset");
-  t_right_ = spec.term_index("reach_right");
-  t_left_ = spec.term_index("reach_left");
-  t_goal_ = static_cast<int>(spec.reward_terms.size()) - 1;
+  TableProgram& g = prog_;
+  g.kind = kind;
+  g.hand_dof_noise = p_.hand_dof_noise;
+  g.reset_angle = p_.reset_angle;
+  g.offset = p_.offset;
+  g.gate = p_.gate;
+  g.goal_scale = p_.goal_scale;
+  g.goal_offset = p_.goal_offset;
+  g.rot_eps = p_.rot_eps;
+  g.reach_scale = p_.reach_scale;
+  g.target_angle = p_.target_angle;
+  g.success = p_.success;
+  g.drop_height = p_.drop_height;
+  g.max_reach = p_.max_reach;
+  g.t_offset = spec.term_index("offset");
+  g.t_right = spec.term_index("reach_right");
+  g.t_left = spec.term_index("reach_left");
+  g.t_goal = static_cast<int>(spec.reward_terms.size()) - 1;
 }
 
 sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
@@ -511,7 +518,8 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
 
 void TableTask::bind(const sim::SimModel& model) {
   const mjModel* m = model.mj();
-  bind_two_hands(model, p_.force_scale, p_.torque_scale, hands_);
+  TableProgram& pr = prog_;
+  bind_two_hands(model, p_.force_scale, p_.torque_scale, pr.hands);
   auto body = [&](const char* n) {
     const int b = mj_name2id(m, mjOBJ_BODY, n);
     if (b < 0) throw ModelError(spec().id + ": the scene has no body '" + n + "'");
@@ -520,248 +528,87 @@ void TableTask::bind(const sim::SimModel& model) {
   auto joint = [&](int i, const char* n) {
     const int j = mj_name2id(m, mjOBJ_JOINT, n);
     if (j < 0) throw ModelError(spec().id + ": the scene has no joint '" + n + "'");
-    joint_qpos_[i] = m->jnt_qposadr[j];
-    joint_dof_[i] = m->jnt_dofadr[j];
+    pr.joint_qpos[i] = m->jnt_qposadr[j];
+    pr.joint_dof[i] = m->jnt_dofadr[j];
   };
+  // the reward points: body and point in its frame (right hand's, left hand's)
+  auto point = [&](int h, int b, double x, double y, double z) {
+    pr.point_body[h] = b;
+    pr.point_local[h][0] = x;
+    pr.point_local[h][1] = y;
+    pr.point_local[h][2] = z;
+  };
+  auto goal_at = [&](double x, double y, double z) {
+    pr.goal_at[0] = x;
+    pr.goal_at[1] = y;
+    pr.goal_at[2] = z;
+  };
+  int* b = pr.body;
   switch (kind_) {
     case TableKind::kSwingCup:
-      body_[0] = obs_body_ = body("cup");
+      b[0] = pr.obs_body = pr.compared_body = body("cup");
+      point(0, b[0], g::kCupHandleX, 0, g::kCupHandleZ);
+      point(1, b[0], -g::kCupHandleX, 0, g::kCupHandleZ);
+      goal_at(p_.object.pos[0], p_.object.pos[1], p_.object.pos[2]);
+      quat_axis(pr.goal_quat, 2, p_.goal_yaw);
       break;
     case TableKind::kScissors:
-      body_[0] = obs_body_ = body("scissors");
-      body_[1] = body("scissors_moving");
+      b[0] = pr.obs_body = body("scissors");
+      b[1] = pr.compared_body = body("scissors_moving");
       joint(0, "scissors_hinge");
+      point(0, b[1], g::kScissorsHandleX, g::kScissorsHandleY, 0);
+      point(1, b[0], g::kScissorsHandleX, -g::kScissorsHandleY, 0);
+      goal_at(0, 0, g::kScissorsLift);
+      quat_axis(pr.goal_quat, 2, g::kScissorsRest + p_.target_angle);
       break;
-    case TableKind::kPen:
-      body_[0] = obs_body_ = body("pen");
-      body_[1] = body("pen_cap");
+    case TableKind::kPen: {
+      b[0] = pr.obs_body = body("pen");
+      b[1] = pr.compared_body = body("pen_cap");
       joint(0, "pen_slide");
+      point(0, b[1], g::kPenCapPoint, 0, 0);
+      point(1, b[0], g::kPenBodyPoint, 0, 0);
+      const double start = g::kPenCapX + g::kPenCapPoint - g::kPenBodyPoint;  // 0.18 m
+      goal_at(g::kPenCapX + p_.success - start, 0, 0);
       break;
+    }
     case TableKind::kSwitch:
-      body_[0] = body("switch1");
-      body_[1] = obs_body_ = body("switch1_rocker");
-      body_[2] = body("switch2_rocker");
-      body_[3] = body("switch2");
+      b[0] = body("switch1");
+      b[1] = pr.obs_body = pr.compared_body = body("switch1_rocker");
+      b[2] = body("switch2_rocker");
+      b[3] = body("switch2");
       joint(0, "switch1_hinge");
       joint(1, "switch2_hinge");
+      point(0, b[1], g::kSwitchPressX, 0, g::kSwitchPressZ);
+      point(1, b[2], g::kSwitchPressX, 0, g::kSwitchPressZ);
+      goal_at(0, 0, g::kSwitchHingeZ);
+      quat_axis(pr.goal_quat, 1, g::kSwitchOn - g::kSwitchTilt);
       break;
     case TableKind::kPourWater:
-      body_[0] = obs_body_ = body("kettle");
-      body_[1] = body("bucket");
+      b[0] = pr.obs_body = pr.compared_body = body("kettle");
+      b[1] = body("bucket");
+      point(0, b[0], g::kKettleHandleX, 0, g::kKettleHandleZ);
+      point(1, b[1], 0, 0, g::kBucketTop);
+      quat_of_rpy(pr.goal_quat, p_.object.rpy);
       break;
   }
-  tree_ = m->body_rootid[obs_body_];
+  pr.root_tree = m->body_rootid[pr.obs_body];
 }
 
 void TableTask::reset(TaskSlot& t) const {
-  mjData* d = t.data;
-  // hands at their mounts (the simulation's reset); joint noise as the original (0 by default)
-  randomise_hand_joints(hands_, p_.hand_dof_noise, t);
-  // objects start at their scene poses (the simulation's reset, water included); joints: the
-  // scissors at reset.joint_angle, the pen closed, both switches off (the original never reset
-  // the switches)
-  for (int i = 0; i < 2; ++i)
-    if (joint_qpos_[i] >= 0) {
-      d->qpos[joint_qpos_[i]] = kind_ == TableKind::kScissors ? p_.reset_angle : 0.0;
-      d->qvel[joint_dof_[i]] = 0;
-    }
+  table_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
 }
 
 void TableTask::apply_actions(const float* a, TaskSlot& t) const {
-  apply_two_hand_actions(hands_, a, t.state.ctrl, t.state.base_wrench);
-}
-
-void TableTask::points(const TaskSlot& t, double* right, double* left) const {
-  const auto& v = t.state;
-  auto at = [&](int b, double x, double y, double z, double* out) {
-    const double local[3] = {x, y, z};
-    math::frame_point(out, v.xpos + 3 * b, v.xquat + 4 * b, local);
-  };
-  switch (kind_) {
-    case TableKind::kSwingCup:
-      at(body_[0], g::kCupHandleX, 0, g::kCupHandleZ, right);
-      at(body_[0], -g::kCupHandleX, 0, g::kCupHandleZ, left);
-      break;
-    case TableKind::kScissors:
-      at(body_[1], g::kScissorsHandleX, g::kScissorsHandleY, 0, right);
-      at(body_[0], g::kScissorsHandleX, -g::kScissorsHandleY, 0, left);
-      break;
-    case TableKind::kPen:
-      at(body_[1], g::kPenCapPoint, 0, 0, right);
-      at(body_[0], g::kPenBodyPoint, 0, 0, left);
-      break;
-    case TableKind::kSwitch:
-      at(body_[1], g::kSwitchPressX, 0, g::kSwitchPressZ, right);
-      at(body_[2], g::kSwitchPressX, 0, g::kSwitchPressZ, left);
-      break;
-    case TableKind::kPourWater:
-      at(body_[0], g::kKettleHandleX, 0, g::kKettleHandleZ, right);
-      at(body_[1], 0, 0, g::kBucketTop, left);
-      break;
-  }
-}
-
-void TableTask::goal(const TaskSlot& t, double* pose, double* compared) const {
-  const auto& v = t.state;
-  auto quat_of = [&](int b, double* q) {
-    for (int k = 0; k < 4; ++k) q[k] = v.xquat[4 * b + k];
-  };
-  switch (kind_) {
-    case TableKind::kSwingCup:
-      for (int k = 0; k < 3; ++k) pose[k] = p_.object.pos[k];
-      quat_axis(pose + 3, 2, p_.goal_yaw);
-      quat_of(body_[0], compared);
-      break;
-    case TableKind::kScissors: {
-      const double lift[3] = {0, 0, g::kScissorsLift};
-      double lq[4];
-      quat_axis(lq, 2, g::kScissorsRest + p_.target_angle);
-      child_frame(v.xpos + 3 * body_[0], v.xquat + 4 * body_[0], lift, lq, pose, pose + 3);
-      quat_of(body_[1], compared);
-      break;
-    }
-    case TableKind::kPen: {
-      const double start = g::kPenCapX + g::kPenCapPoint - g::kPenBodyPoint;  // 0.18 m
-      const double at[3] = {g::kPenCapX + p_.success - start, 0, 0};
-      const double id[4] = {1, 0, 0, 0};
-      child_frame(v.xpos + 3 * body_[0], v.xquat + 4 * body_[0], at, id, pose, pose + 3);
-      quat_of(body_[1], compared);
-      break;
-    }
-    case TableKind::kSwitch: {
-      const double hinge[3] = {0, 0, g::kSwitchHingeZ};
-      double lq[4];
-      quat_axis(lq, 1, g::kSwitchOn - g::kSwitchTilt);
-      child_frame(v.xpos + 3 * body_[0], v.xquat + 4 * body_[0], hinge, lq, pose, pose + 3);
-      quat_of(body_[1], compared);
-      break;
-    }
-    case TableKind::kPourWater: {
-      double l[3];
-      points(t, pose, l);  // (the right point is overwritten below)
-      for (int k = 0; k < 3; ++k) pose[k] = l[k];
-      quat_of_rpy(pose + 3, p_.object.rpy);
-      quat_of(body_[0], compared);
-      break;
-    }
-  }
-}
-
-double TableTask::goal_error(const TaskSlot& t) const {
-  const auto& v = t.state;
-  switch (kind_) {
-    case TableKind::kSwingCup: {
-      double pose[7], q[4];
-      goal(t, pose, q);
-      return math::rot_distance(q, pose + 3);
-    }
-    case TableKind::kScissors:
-      return std::abs(v.qpos[joint_qpos_[0]] - p_.target_angle);
-    case TableKind::kPen: {
-      double r[3], l[3];
-      points(t, r, l);
-      return math::dist3(r, l);
-    }
-    case TableKind::kSwitch: {
-      // each press point against its position with the rocker on
-      double sum = 0;
-      for (int i = 0; i < 2; ++i) {
-        const int root = i == 0 ? body_[0] : body_[3];  // the switch's fixed body
-        const double hinge[3] = {0, 0, g::kSwitchHingeZ};
-        const double press[3] = {g::kSwitchPressX, 0, g::kSwitchPressZ};
-        double lq[4], rp[3], rq[4], target[3], now[3];
-        quat_axis(lq, 1, g::kSwitchOn - g::kSwitchTilt);
-        child_frame(v.xpos + 3 * root, v.xquat + 4 * root, hinge, lq, rp, rq);
-        math::frame_point(target, rp, rq, press);
-        const int rocker = i == 0 ? body_[1] : body_[2];
-        math::frame_point(now, v.xpos + 3 * rocker, v.xquat + 4 * rocker, press);
-        sum += math::dist3(now, target);
-      }
-      return sum;
-    }
-    case TableKind::kPourWater: {
-      const double spout[3] = {g::kSpoutX, 0, g::kSpoutZ};
-      double s[3], r[3], b[3];
-      math::frame_point(s, v.xpos + 3 * body_[0], v.xquat + 4 * body_[0], spout);
-      points(t, r, b);
-      return math::dist3(s, b);
-    }
-  }
-  return 0;
-}
-
-bool TableTask::success_now(const TaskSlot& t) const {
-  const double e = goal_error(t);
-  switch (kind_) {
-    case TableKind::kSwingCup: return e < p_.success;
-    case TableKind::kScissors: return t.state.qpos[joint_qpos_[0]] > p_.success;
-    case TableKind::kPen: return e > p_.success;
-    case TableKind::kSwitch: return e < p_.success;
-    case TableKind::kPourWater: return e < p_.success;
-  }
-  return false;
+  table_apply_actions(prog_, a, world_rows(t));
 }
 
 bool TableTask::evaluate(TaskSlot& t, double* terms) const {
-  const auto& v = t.state;
-  double r[3], l[3];
-  points(t, r, l);
-  const double sr = tip_distance_sum(hands_[0], v, r), sl = tip_distance_sum(hands_[1], v, l);
-  const bool near = sr < p_.gate && sl < p_.gate;
-  const double e = goal_error(t);
-  if (t_offset_ >= 0) terms[t_offset_] = p_.offset;
-  bool end = false;
-  switch (kind_) {
-    case TableKind::kSwingCup:
-      terms[t_right_] = -sr;
-      terms[t_left_] = -sl;
-      terms[t_goal_] = near ? p_.goal_scale / (e + p_.rot_eps) - p_.goal_offset : 0.0;
-      end = v.xpos[3 * body_[0] + 2] <= p_.drop_height;
-      break;
-    case TableKind::kScissors:
-      terms[t_right_] = -sr;
-      terms[t_left_] = -sl;
-      terms[t_goal_] = near ? p_.goal_scale * (p_.goal_offset - e) : 0.0;
-      end = sr >= p_.max_reach || sl >= p_.max_reach;
-      break;
-    case TableKind::kPen:
-      terms[t_right_] = std::exp(-p_.reach_scale * sr);
-      terms[t_left_] = std::exp(-p_.reach_scale * sl);
-      terms[t_goal_] = near ? p_.goal_scale * e - p_.goal_offset : 0.0;
-      end = sr >= p_.max_reach || sl >= p_.max_reach;
-      break;
-    case TableKind::kSwitch:
-      terms[t_right_] = -sr;
-      terms[t_left_] = -sl;
-      terms[t_goal_] = p_.goal_scale * (p_.goal_offset - e);
-      break;
-    case TableKind::kPourWater:
-      terms[t_right_] = -sr;
-      terms[t_left_] = -sl;
-      terms[t_goal_] = near ? p_.goal_scale * (p_.goal_offset - e) : 0.0;
-      end = l[2] <= p_.drop_height;
-      break;
-  }
-  if (success_now(t)) t.task->success = true;
-  return end;
+  return table_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
 }
 
 void TableTask::observe(const TaskSlot& t, float* obs) const {
-  const auto& v = t.state;
-  float* o = observe_two_hands(hands_, v, t.task->action.data(), obs);
-  observe_object(v, obs_body_, tree_, o);
-  double pose[7], q[4];
-  goal(t, pose, q);
-  observe_goal(pose, q, o + 13);
-  double r[3], l[3];
-  points(t, r, l);
-  // the paper's order: the right hand's point first, except the pen (body, then cap)
-  const double* first = kind_ == TableKind::kPen ? l : r;
-  const double* second = kind_ == TableKind::kPen ? r : l;
-  for (int k = 0; k < 3; ++k) {
-    o[24 + k] = static_cast<float>(first[k]);
-    o[27 + k] = static_cast<float>(second[k]);
-  }
+  table_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 }  // namespace bidex::tasks

@@ -10,11 +10,10 @@
 
 #include "tasks/config_fields.h"
 #include "tasks/hands.h"
+#include "tasks/table_body.h"
 #include "tasks/task.h"
 
 namespace bidex::tasks {
-
-enum class TableKind { kSwingCup, kScissors, kPen, kSwitch, kPourWater };
 
 struct TableParams {
   std::string file;                 // the YAML it came from
@@ -73,27 +72,6 @@ std::unique_ptr<Task> make_table_task(TableKind kind, const TaskSpec& spec,
     return make_table_task(kind, id##_spec(), config_file);                     \
   }
 
-// Geometry of the objects (metres, in each body's own frame; tasks/*/README.md draws them).
-namespace table_geom {
-// swing_cup: handle centres in the cup frame (right, left)
-constexpr double kCupHandleX = 0.075, kCupHandleZ = 0.07;
-// scissors: the moving half's hinge sits at its body origin, turned by kScissorsRest about z
-// relative to the root at joint angle 0 (closed at -kScissorsRest); handle centres
-constexpr double kScissorsRest = 0.5969, kScissorsLift = 0.008;
-constexpr double kScissorsHandleX = 0.15, kScissorsHandleY = 0.045;
-constexpr double kScissorsLower = -0.5969, kScissorsUpper = 0.4;
-// pen: cap body at +x of the pen body; grip points on each
-constexpr double kPenCapX = 0.03, kPenCapPoint = 0.06, kPenBodyPoint = -0.09, kPenTravel = 0.492;
-// switch: rocker hinge above the root, tilted by kSwitchTilt at 0; press point on the rocker
-constexpr double kSwitchHingeZ = 0.12, kSwitchTilt = 0.27925, kSwitchOn = 0.5585;
-constexpr double kSwitchPressX = 0.04, kSwitchPressZ = 0.008;
-constexpr double kSwitchArmature = 0.005;  // kg m^2 on each rocker hinge (README)
-// pour_water: kettle handle and spout in the kettle frame; bucket opening in the bucket frame
-constexpr double kKettleHandleX = 0.15, kKettleHandleZ = 0.08;
-constexpr double kSpoutX = -0.2, kSpoutZ = 0.13;
-constexpr double kBucketTop = 0.15;
-}  // namespace table_geom
-
 class TableTask : public Task {
  public:
   TableTask(TableKind kind, const TaskSpec& spec, TableParams params);
@@ -109,28 +87,13 @@ class TableTask : public Task {
   bool evaluate(TaskSlot& slot, double* terms) const override;
   void observe(const TaskSlot& slot, float* obs) const override;
 
-  // The two reward points (world): the right hand's and the left hand's (the tail's last 6, in
-  // this order except for the pen, whose tail lists the body point first as the paper).
-  void points(const TaskSlot& slot, double* right, double* left) const;
-  // The goal pose (position, (w, x, y, z)) and the orientation compared with it.
-  void goal(const TaskSlot& slot, double* pose, double* compared_quat) const;
-  // The goal term's error: swing_cup the rotation distance (rad), scissors |q - q*| (rad), pen
-  // the grip-point separation (m), switch the summed press-point distances (m), pour_water the
-  // spout's distance to the bucket opening (m).
-  double goal_error(const TaskSlot& slot) const;
-  // Whether the success condition holds in the slot's state.
-  bool success_now(const TaskSlot& slot) const;
+  // What the stage bodies (tasks/table_body.h) need, complete after bind().
+  const TableProgram& program() const { return prog_; }
 
  private:
   TableKind kind_;
   TableParams p_;
-  HandRig hands_[2];
-  int body_[4] = {-1, -1, -1, -1};  // root, moving part or second object, switch 2's rocker, switch 2
-  int tree_ = -1;                // the observed body's tree root
-  int obs_body_ = -1;            // the body of the object block
-  int joint_qpos_[2] = {-1, -1};
-  int joint_dof_[2] = {-1, -1};
-  int t_offset_ = -1, t_right_ = -1, t_left_ = -1, t_goal_ = -1;
+  TableProgram prog_;
 };
 
 }  // namespace bidex::tasks

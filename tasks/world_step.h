@@ -94,7 +94,7 @@ BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a,
     trunc = true;
   } else {
     st.progress += 1;
-    term = B::evaluate(p, rows, st, tv);
+    term = B::evaluate(p, rows, st, a.rng[w], tv);
     trunc = !term && st.progress >= a.episode_length;
   }
   double r = 0;

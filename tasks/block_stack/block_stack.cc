@@ -1,12 +1,11 @@
-// block_stack: Stack Block (the original's ShadowHandBlockStack); defaults in block_stack.yaml,
-// decisions in README.md. The left hand's block 1 goes on top of the right hand's block 2.
+// block_stack: the spec, the YAML, the scene and the host half of BlockStack (block_stack.h).
 #include <cmath>
 
 #include <mujoco/mujoco.h>
 
 #include "core/error.h"
 #include "core/yaml.h"
-#include "tasks/manipulation_family.h"
+#include "tasks/block_stack/block_stack.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -14,23 +13,10 @@ namespace bidex::tasks {
 
 namespace {
 
-struct StackParams {
-  manip::CommonParams common;
-  manip::TableParams table;
-  manip::BlockPair blocks;  // block1 (left hand's, on top), block2 (right hand's); place = targets
-  // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target) [+ stack bonus]
-  double offset = 1.5, goal_scale = 2, goal_offset = 0.24;
-  double goal_gate = 0;               // > 0: the goal term only while both hands' sums < it
-  double stack_bonus_scale = 0;       // the original's 50 (0: the paper's formula)
-  double stack_tolerance = 0.07;      // each block this close to its target
-  double height_tolerance = 0.03;     // |z(target1) - z(block1)| below it
-  double max_tip_distance = 0.75;
-};
-
-StackParams load(const std::string& file) {
+BlockStackParams load(const std::string& file) {
   const YamlView root = YamlView::load_file(file);
   root.allow_keys({"episode_length", "hands", "base", "table", "blocks", "reward", "termination"});
-  StackParams p;
+  BlockStackParams p;
   p.common = manip::load_common(root, file);
   p.table = manip::load_table(root.child("table"));
   p.blocks = manip::load_block_pair(root.child("blocks"), "target");
@@ -55,83 +41,6 @@ StackParams load(const std::string& file) {
   return p;
 }
 
-class BlockStack : public manip::ManipTask {
- public:
-  BlockStack(const TaskSpec& spec, StackParams p) : ManipTask(spec, p.common), p_(std::move(p)) {}
-
-  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
-                          const sim::PhysicsOptions& physics) const override {
-    sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
-    sb.add_object(manip::table("table", p_.table));
-    const auto& b = p_.blocks;
-    const sim::Quat q = manip::quat_rpy(b.rpy);
-    for (int i = 0; i < 2; ++i) {
-      auto o = manip::cube("block" + std::to_string(i + 1), b.edge, b.density, b.friction,
-                           b.start[i], q);
-      if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
-      sb.add_object(o);
-    }
-    sb.add_object(manip::marker_box("goal", b.edge / 2, b.place[0], q, {0.85, 0.35, 0.25, 0.3}));
-    return sb;
-  }
-
-  void bind(const sim::SimModel& model) override {
-    bind_hands(model);
-    for (int i = 0; i < 2; ++i) {
-      const auto& o = manip::object_index(model, spec().id, "block" + std::to_string(i + 1));
-      body_[i] = o.body;
-      tree_[i] = model.mj()->body_rootid[o.body];
-    }
-    t_offset_ = spec().term_index("offset");
-    t_left_ = spec().term_index("left_hand");
-    t_right_ = spec().term_index("right_hand");
-    t_goal_ = spec().term_index("goal");
-    t_stack_ = spec().term_index("stack_bonus");
-  }
-
-  void reset(TaskSlot& t) const override {
-    // blocks at their start poses (the simulation's reset); the goal is block 1's target, in
-    // the blocks' start orientation
-    const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
-    for (int k = 0; k < 3; ++k) t.task->goal[0][k] = p_.blocks.place[0][k];
-    for (int k = 0; k < 4; ++k) t.task->goal[0][3 + k] = q[k];
-  }
-
-  bool evaluate(TaskSlot& t, double* terms) const override {
-    const auto& v = t.state;
-    const double* b1 = v.xpos + 3 * body_[0];
-    const double* b2 = v.xpos + 3 * body_[1];
-    const double d_left = tip_distance_sum(hands_[1], v, b1);
-    const double d_right = tip_distance_sum(hands_[0], v, b2);
-    const double e1 = math::dist3(b1, p_.blocks.place[0].data());
-    const double e2 = math::dist3(b2, p_.blocks.place[1].data());
-    terms[t_offset_] = p_.offset;
-    terms[t_left_] = -d_left;
-    terms[t_right_] = -d_right;
-    const bool gate_open = p_.goal_gate <= 0 || (d_left < p_.goal_gate && d_right < p_.goal_gate);
-    terms[t_goal_] = gate_open ? p_.goal_scale * (p_.goal_offset - (e1 + e2)) : 0.0;
-    const double dz = std::abs(p_.blocks.place[0][2] - b1[2]);
-    const bool placed = e1 < p_.stack_tolerance && e2 < p_.stack_tolerance;
-    if (placed) terms[t_stack_] = p_.stack_bonus_scale * (0.05 - dz);
-    if (placed && dz < p_.height_tolerance) t.task->success = true;
-    return p_.max_tip_distance > 0 &&
-           (d_left >= p_.max_tip_distance || d_right >= p_.max_tip_distance);
-  }
-
-  void observe(const TaskSlot& t, float* obs) const override {
-    float* o = observe_hands(t, obs);
-    observe_object(t.state, body_[0], tree_[0], o);
-    observe_goal(t.task->goal[0].data(), t.state.xquat + 4 * body_[0], o + 13);
-    manip::put3(o + 24, t.state.xpos + 3 * body_[0]);
-    manip::put3(o + 27, t.state.xpos + 3 * body_[1]);
-  }
-
- private:
-  StackParams p_;
-  int body_[2] = {-1, -1}, tree_[2] = {-1, -1};
-  int t_offset_ = -1, t_left_ = -1, t_right_ = -1, t_goal_ = -1, t_stack_ = -1;
-};
-
 TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
       "block_stack", "Stack Block", "ShadowHandBlockStack", HumanAge{22, 28, "22-28", false},
@@ -153,6 +62,71 @@ TaskSpec make_spec() {
 }
 
 }  // namespace
+
+BlockStack::BlockStack(const TaskSpec& spec, BlockStackParams p)
+    : ManipTask(spec, p.common), p_(std::move(p)) {
+  BlockStackProgram& g = prog_;
+  for (int i = 0; i < 2; ++i)
+    for (int k = 0; k < 3; ++k) g.target[i][k] = p_.blocks.place[i][k];
+  const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
+  for (int k = 0; k < 3; ++k) g.goal[k] = p_.blocks.place[0][k];
+  for (int k = 0; k < 4; ++k) g.goal[3 + k] = q[k];
+  g.offset = p_.offset;
+  g.goal_scale = p_.goal_scale;
+  g.goal_offset = p_.goal_offset;
+  g.goal_gate = p_.goal_gate;
+  g.stack_bonus_scale = p_.stack_bonus_scale;
+  g.stack_tolerance = p_.stack_tolerance;
+  g.height_tolerance = p_.height_tolerance;
+  g.max_tip_distance = p_.max_tip_distance;
+  g.t_offset = spec.term_index("offset");
+  g.t_left = spec.term_index("left_hand");
+  g.t_right = spec.term_index("right_hand");
+  g.t_goal = spec.term_index("goal");
+  g.t_stack = spec.term_index("stack_bonus");
+}
+
+sim::SceneBuilder BlockStack::scene(const sim::HandSpec& right_hand,
+                                    const sim::PhysicsOptions& physics) const {
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+  sb.add_object(manip::table("table", p_.table));
+  const auto& b = p_.blocks;
+  const sim::Quat q = manip::quat_rpy(b.rpy);
+  for (int i = 0; i < 2; ++i) {
+    auto o = manip::cube("block" + std::to_string(i + 1), b.edge, b.density, b.friction,
+                         b.start[i], q);
+    if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
+    sb.add_object(o);
+  }
+  sb.add_object(manip::marker_box("goal", b.edge / 2, b.place[0], q, {0.85, 0.35, 0.25, 0.3}));
+  return sb;
+}
+
+void BlockStack::bind(const sim::SimModel& model) {
+  bind_hands(model, prog_.hands);
+  for (int i = 0; i < 2; ++i) {
+    const auto& o = manip::object_index(model, spec().id, "block" + std::to_string(i + 1));
+    prog_.body[i] = o.body;
+    prog_.root_tree[i] = model.mj()->body_rootid[o.body];
+  }
+}
+
+void BlockStack::reset(TaskSlot& t) const {
+  block_stack_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
+}
+
+void BlockStack::apply_actions(const float* a, TaskSlot& t) const {
+  block_stack_apply_actions(prog_, a, world_rows(t));
+}
+
+bool BlockStack::evaluate(TaskSlot& t, double* terms) const {
+  return block_stack_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
+}
+
+void BlockStack::observe(const TaskSlot& t, float* obs) const {
+  block_stack_observe(prog_, world_rows(t), *t.task, obs);
+}
 
 const TaskSpec& block_stack_spec() {
   static const TaskSpec spec = make_spec();

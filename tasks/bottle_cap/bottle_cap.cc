@@ -1,6 +1,4 @@
-// bottle_cap: Open Bottle Cap (the original's ShadowHandBottleCap); defaults in bottle_cap.yaml,
-// decisions in README.md. One hand holds the bottle, the other pulls its cap off along the
-// bottle's axis (a slide joint with a limit, friction and damping, and a free twist).
+// bottle_cap: the spec, the YAML, the scene and the host half of BottleCap (bottle_cap.h).
 #include <cmath>
 #include <cstdio>
 
@@ -8,7 +6,7 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
-#include "tasks/manipulation_family.h"
+#include "tasks/bottle_cap/bottle_cap.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -16,30 +14,10 @@ namespace bidex::tasks {
 
 namespace {
 
-struct CapParams {
-  manip::CommonParams common;
-  manip::TableParams table;
-  sim::Vec3 bottle_start{}, bottle_rpy{};
-  double density = 500, friction = 1;
-  double cap_travel = 0.064;      // slide range [0, travel] (m)
-  double cap_frictionloss = 0.5;  // N: the pull the cap needs before it moves
-  double cap_damping = 1;         // N s/m
-  double twist_damping = 0.001;   // N m s/rad
-  double cap_point = 0.15;        // c = bottle origin + R (0, 0, cap_point)
-  // reward: offset - d_right - d_left + open_scale d_open
-  double offset = 0.2, open_scale = 30;
-  double goal_gate = 0;           // > 0: the opening term only while d_right <= it
-  double success_opening = 0.03;  // m
-  // termination
-  double cap_drop_height = 0.5;   // z(c) at or below
-  double max_right_palm = 0.5;    // |c - palm_R| at or above
-  double max_left_palm = 0.2;     // |b - palm_L| at or above
-};
-
-CapParams load(const std::string& file) {
+BottleCapParams load(const std::string& file) {
   const YamlView root = YamlView::load_file(file);
   root.allow_keys({"episode_length", "hands", "base", "table", "bottle", "reward", "termination"});
-  CapParams p;
+  BottleCapParams p;
   p.common = manip::load_common(root, file);
   p.table = manip::load_table(root.child("table"));
   {
@@ -74,16 +52,13 @@ CapParams load(const std::string& file) {
   return p;
 }
 
-// Bottle frame: axis +z, origin at the bottle's centre, 0.275 m tall (-0.1375 to 0.1375).
-constexpr double kCapSeat = 0.12;  // cap body origin (the cap's centre) when closed
-
 std::string fmt(double v) {
   char buf[40];
   std::snprintf(buf, sizeof buf, "%.10g", v);
   return buf;
 }
 
-std::string bottle_body(const CapParams& p) {
+std::string bottle_body(const BottleCapParams& p) {
   const double rho = p.density, mu = p.friction;
   std::string s;
   // body: a capsule of radius 0.0395 (0.079 m wide) from -0.1375 to 0.0475
@@ -92,7 +67,7 @@ std::string bottle_body(const CapParams& p) {
   // neck: radius 0.016, 0.029 to 0.111
   s += manip::geom("bottle_neck", "capsule", "0.016 0.025", {0, 0, 0.07}, rho, mu,
                    "0.3 0.6 0.35 1");
-  s += "<body name=\"bottle_cap\" pos=\"0 0 " + fmt(kCapSeat) + "\">\n";
+  s += "<body name=\"bottle_cap\" pos=\"0 0 " + fmt(kBottleCapSeat) + "\">\n";
   s += "<joint name=\"bottle_cap_slide\" type=\"slide\" axis=\"0 0 1\" limited=\"true\" range=\"0 " +
        fmt(p.cap_travel) + "\" damping=\"" + fmt(p.cap_damping) + "\" frictionloss=\"" +
        fmt(p.cap_frictionloss) + "\" armature=\"0.001\"/>\n";
@@ -104,82 +79,6 @@ std::string bottle_body(const CapParams& p) {
   s += "</body>\n";
   return s;
 }
-
-class BottleCap : public manip::ManipTask {
- public:
-  BottleCap(const TaskSpec& spec, CapParams p) : ManipTask(spec, p.common), p_(std::move(p)) {}
-
-  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
-                          const sim::PhysicsOptions& physics) const override {
-    sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
-    sb.add_object(manip::table("table", p_.table));
-    sim::ObjectSpec b;
-    b.name = "bottle";
-    b.shape = sim::ObjectSpec::Shape::kMjcf;
-    b.mjcf_body = bottle_body(p_);
-    b.pose.pos = p_.bottle_start;
-    b.pose.quat = manip::quat_rpy(p_.bottle_rpy);
-    sb.add_object(b);
-    return sb;
-  }
-
-  void bind(const sim::SimModel& model) override {
-    bind_hands(model);
-    bottle_ = manip::object_index(model, spec().id, "bottle").body;
-    tree_ = model.mj()->body_rootid[bottle_];
-    cap_ = mj_name2id(model.mj(), mjOBJ_BODY, "bottle_cap");
-    if (cap_ < 0) throw ModelError("bottle_cap: the scene lacks the bottle's cap body");
-    t_offset_ = spec().term_index("offset");
-    t_right_ = spec().term_index("right_hand");
-    t_left_ = spec().term_index("left_hand");
-    t_open_ = spec().term_index("cap_open");
-  }
-
-  void reset(TaskSlot&) const override {}  // bottle at its start pose, cap closed (the sim's reset)
-
-  // The cap's distance from its closed seat (m): the paper's |x_bottle - x_cap| measured from
-  // where the cap sits when closed.
-  double opening(const sim::SlotView& v) const {
-    const double seat_local[3] = {0, 0, kCapSeat};
-    double seat[3];
-    manip::body_point(v, bottle_, seat_local, seat);
-    return math::dist3(v.xpos + 3 * cap_, seat);
-  }
-
-  bool evaluate(TaskSlot& t, double* terms) const override {
-    const auto& v = t.state;
-    const double* b = v.xpos + 3 * bottle_;
-    const double cap_local[3] = {0, 0, p_.cap_point};
-    double c[3], palm_r[3], palm_l[3];
-    manip::body_point(v, bottle_, cap_local, c);
-    palm_point(hands_[0], v, palm_r);
-    palm_point(hands_[1], v, palm_l);
-    const double d_right = tip_distance_sum(hands_[0], v, c);
-    const double d_left = math::dist3(b, palm_l);
-    const double d_open = opening(v);
-    terms[t_offset_] = p_.offset;
-    terms[t_right_] = -d_right;
-    terms[t_left_] = -d_left;
-    const bool gate_open = p_.goal_gate <= 0 || d_right <= p_.goal_gate;
-    terms[t_open_] = gate_open ? p_.open_scale * d_open : 0.0;
-    if (d_open > p_.success_opening) t.task->success = true;
-    bool end = c[2] <= p_.cap_drop_height;
-    if (p_.max_right_palm > 0 && math::dist3(c, palm_r) >= p_.max_right_palm) end = true;
-    if (p_.max_left_palm > 0 && d_left >= p_.max_left_palm) end = true;
-    return end;
-  }
-
-  void observe(const TaskSlot& t, float* obs) const override {
-    float* o = observe_hands(t, obs);
-    observe_object(t.state, bottle_, tree_, o);
-    manip::put3(o + 13, t.state.xpos + 3 * cap_);
-  }
-
- private:
-  CapParams p_;
-  int bottle_ = -1, tree_ = -1, cap_ = -1;
-  int t_offset_ = -1, t_right_ = -1, t_left_ = -1, t_open_ = -1;
-};
 
 TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
@@ -199,6 +98,62 @@ TaskSpec make_spec() {
 }
 
 }  // namespace
+
+BottleCap::BottleCap(const TaskSpec& spec, BottleCapParams p)
+    : ManipTask(spec, p.common), p_(std::move(p)) {
+  BottleCapProgram& g = prog_;
+  g.cap_point = p_.cap_point;
+  g.offset = p_.offset;
+  g.open_scale = p_.open_scale;
+  g.goal_gate = p_.goal_gate;
+  g.success_opening = p_.success_opening;
+  g.cap_drop_height = p_.cap_drop_height;
+  g.max_right_palm = p_.max_right_palm;
+  g.max_left_palm = p_.max_left_palm;
+  g.t_offset = spec.term_index("offset");
+  g.t_right = spec.term_index("right_hand");
+  g.t_left = spec.term_index("left_hand");
+  g.t_open = spec.term_index("cap_open");
+}
+
+sim::SceneBuilder BottleCap::scene(const sim::HandSpec& right_hand,
+                                   const sim::PhysicsOptions& physics) const {
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+  sb.add_object(manip::table("table", p_.table));
+  sim::ObjectSpec b;
+  b.name = "bottle";
+  b.shape = sim::ObjectSpec::Shape::kMjcf;
+  b.mjcf_body = bottle_body(p_);
+  b.pose.pos = p_.bottle_start;
+  b.pose.quat = manip::quat_rpy(p_.bottle_rpy);
+  sb.add_object(b);
+  return sb;
+}
+
+void BottleCap::bind(const sim::SimModel& model) {
+  bind_hands(model, prog_.hands);
+  prog_.bottle = manip::object_index(model, spec().id, "bottle").body;
+  prog_.root_tree = model.mj()->body_rootid[prog_.bottle];
+  prog_.cap = mj_name2id(model.mj(), mjOBJ_BODY, "bottle_cap");
+  if (prog_.cap < 0) throw ModelError("bottle_cap: the scene lacks the bottle's cap body");
+}
+
+void BottleCap::reset(TaskSlot& t) const {
+  bottle_cap_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
+}
+
+void BottleCap::apply_actions(const float* a, TaskSlot& t) const {
+  bottle_cap_apply_actions(prog_, a, world_rows(t));
+}
+
+bool BottleCap::evaluate(TaskSlot& t, double* terms) const {
+  return bottle_cap_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
+}
+
+void BottleCap::observe(const TaskSlot& t, float* obs) const {
+  bottle_cap_observe(prog_, world_rows(t), *t.task, obs);
+}
 
 const TaskSpec& bottle_cap_spec() {
   static const TaskSpec spec = make_spec();

@@ -1,6 +1,5 @@
-// grasp_and_place: Pull a Ball into Bucket / Grasp & Place (the original's
-// ShadowHandGraspAndPlace); defaults in grasp_and_place.yaml, decisions in README.md. The right
-// hand takes the bucket, the left hand the block (or ball), and the two meet.
+// grasp_and_place: the spec, the YAML, the scene and the host half of GraspAndPlace
+// (grasp_and_place.h).
 #include <algorithm>
 #include <cmath>
 
@@ -8,7 +7,7 @@
 
 #include "core/error.h"
 #include "core/yaml.h"
-#include "tasks/manipulation_family.h"
+#include "tasks/grasp_and_place/grasp_and_place.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -16,28 +15,11 @@ namespace bidex::tasks {
 
 namespace {
 
-struct PlaceParams {
-  manip::CommonParams common;
-  manip::TableParams table;
-  // bucket: an open box of outer half width, height and wall thickness
-  double bucket_half_width = 0.055, bucket_height = 0.154, bucket_wall = 0.005;
-  double bucket_density = 500, bucket_friction = 1;
-  sim::Vec3 bucket_start{};
-  // the object: a cube (edge) or a ball (diameter)
-  std::string object_shape = "block";
-  double object_size = 0.05, object_density = 500, object_friction = 1;
-  sim::Vec3 object_start{}, object_rpy{};
-  // reward: exp(-k sum_R(bucket)) + exp(-k sum_L(object)) + place_scale exp(-k |bucket - object|)
-  double decay = 10, place_scale = 2;
-  double success_tolerance = 0.2;
-  double max_tip_distance = 1.5;
-};
-
-PlaceParams load(const std::string& file) {
+GraspAndPlaceParams load(const std::string& file) {
   const YamlView root = YamlView::load_file(file);
   root.allow_keys({"episode_length", "hands", "base", "table", "bucket", "object", "reward",
                    "termination"});
-  PlaceParams p;
+  GraspAndPlaceParams p;
   p.common = manip::load_common(root, file);
   p.table = manip::load_table(root.child("table"));
   {
@@ -81,7 +63,7 @@ PlaceParams load(const std::string& file) {
 }
 
 // The bucket's geoms: a floor and four walls, origin at the bucket's centre.
-std::string bucket_body(const PlaceParams& p) {
+std::string bucket_body(const GraspAndPlaceParams& p) {
   const double w = p.bucket_half_width, h = p.bucket_height / 2, t = p.bucket_wall / 2;
   auto sz = [](double a, double b, double c) {
     return std::to_string(a) + " " + std::to_string(b) + " " + std::to_string(c);
@@ -96,79 +78,6 @@ std::string bucket_body(const PlaceParams& p) {
   s += manip::geom("bucket_wall_ny", "box", sz(w - 2 * t, t, h), {0, -(w - t), 0}, rho, mu, c);
   return s;
 }
-
-class GraspAndPlace : public manip::ManipTask {
- public:
-  GraspAndPlace(const TaskSpec& spec, PlaceParams p) : ManipTask(spec, p.common), p_(std::move(p)) {}
-
-  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
-                          const sim::PhysicsOptions& physics) const override {
-    // up to 203 constraint rows under random actions (bench task, maxuse_efc): more than the
-    // default GPU room of 192, which every world overflowed (bench/results/warp-h100/)
-    sim::PhysicsOptions ph = physics;
-    ph.gpu_njmax = std::max(ph.gpu_njmax, 384);
-    sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
-    sb.add_object(manip::table("table", p_.table));
-    sim::ObjectSpec b;
-    b.name = "bucket";
-    b.shape = sim::ObjectSpec::Shape::kMjcf;
-    b.mjcf_body = bucket_body(p_);
-    b.pose.pos = p_.bucket_start;
-    sb.add_object(b);
-    const sim::Quat q = manip::quat_rpy(p_.object_rpy);
-    auto o = manip::cube("object", p_.object_size, p_.object_density, p_.object_friction,
-                         p_.object_start, q);
-    if (p_.object_shape == "ball") {
-      const double r = p_.object_size / 2;
-      o.shape = sim::ObjectSpec::Shape::kSphere;
-      o.size = {r, r, r};
-      o.mass = p_.object_density * 4.0 / 3.0 * M_PI * r * r * r;
-    }
-    sb.add_object(o);
-    return sb;
-  }
-
-  void bind(const sim::SimModel& model) override {
-    bind_hands(model);
-    bucket_ = manip::object_index(model, spec().id, "bucket").body;
-    object_ = manip::object_index(model, spec().id, "object").body;
-    bucket_tree_ = model.mj()->body_rootid[bucket_];
-    t_right_ = spec().term_index("right_hand");
-    t_left_ = spec().term_index("left_hand");
-    t_place_ = spec().term_index("place");
-  }
-
-  void reset(TaskSlot&) const override {}  // bucket and object at their start poses
-
-  bool evaluate(TaskSlot& t, double* terms) const override {
-    const auto& v = t.state;
-    const double* k = v.xpos + 3 * bucket_;
-    const double* c = v.xpos + 3 * object_;
-    const double d_right = tip_distance_sum(hands_[0], v, k);
-    const double d_left = tip_distance_sum(hands_[1], v, c);
-    const double d = math::dist3(k, c);
-    terms[t_right_] = std::exp(-p_.decay * d_right);
-    terms[t_left_] = std::exp(-p_.decay * d_left);
-    terms[t_place_] = p_.place_scale * std::exp(-p_.decay * d);
-    if (d < p_.success_tolerance) t.task->success = true;
-    return p_.max_tip_distance > 0 &&
-           (d_left >= p_.max_tip_distance || d_right >= p_.max_tip_distance);
-  }
-
-  void observe(const TaskSlot& t, float* obs) const override {
-    float* o = observe_hands(t, obs);
-    observe_object(t.state, bucket_, bucket_tree_, o);
-    manip::put3(o + 13, t.state.xpos + 3 * bucket_);
-    math::put_quat_xyzw(o + 16, t.state.xquat + 4 * bucket_);
-    manip::put3(o + 20, t.state.xpos + 3 * object_);
-    math::put_quat_xyzw(o + 23, t.state.xquat + 4 * object_);
-  }
-
- private:
-  PlaceParams p_;
-  int bucket_ = -1, object_ = -1, bucket_tree_ = -1;
-  int t_right_ = -1, t_left_ = -1, t_place_ = -1;
-};
 
 TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
@@ -190,6 +99,69 @@ TaskSpec make_spec() {
 }
 
 }  // namespace
+
+GraspAndPlace::GraspAndPlace(const TaskSpec& spec, GraspAndPlaceParams p)
+    : ManipTask(spec, p.common), p_(std::move(p)) {
+  GraspAndPlaceProgram& g = prog_;
+  g.decay = p_.decay;
+  g.place_scale = p_.place_scale;
+  g.success_tolerance = p_.success_tolerance;
+  g.max_tip_distance = p_.max_tip_distance;
+  g.t_right = spec.term_index("right_hand");
+  g.t_left = spec.term_index("left_hand");
+  g.t_place = spec.term_index("place");
+}
+
+sim::SceneBuilder GraspAndPlace::scene(const sim::HandSpec& right_hand,
+                                       const sim::PhysicsOptions& physics) const {
+  // up to 203 constraint rows under random actions (bench task, maxuse_efc): more than the
+  // default GPU room of 192, which every world overflowed (bench/results/warp-h100/)
+  sim::PhysicsOptions ph = physics;
+  ph.gpu_njmax = std::max(ph.gpu_njmax, 384);
+  sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
+  sb.add_object(manip::table("table", p_.table));
+  sim::ObjectSpec b;
+  b.name = "bucket";
+  b.shape = sim::ObjectSpec::Shape::kMjcf;
+  b.mjcf_body = bucket_body(p_);
+  b.pose.pos = p_.bucket_start;
+  sb.add_object(b);
+  const sim::Quat q = manip::quat_rpy(p_.object_rpy);
+  auto o = manip::cube("object", p_.object_size, p_.object_density, p_.object_friction,
+                       p_.object_start, q);
+  if (p_.object_shape == "ball") {
+    const double r = p_.object_size / 2;
+    o.shape = sim::ObjectSpec::Shape::kSphere;
+    o.size = {r, r, r};
+    o.mass = p_.object_density * 4.0 / 3.0 * M_PI * r * r * r;
+  }
+  sb.add_object(o);
+  return sb;
+}
+
+void GraspAndPlace::bind(const sim::SimModel& model) {
+  bind_hands(model, prog_.hands);
+  prog_.bucket = manip::object_index(model, spec().id, "bucket").body;
+  prog_.object = manip::object_index(model, spec().id, "object").body;
+  prog_.bucket_tree = model.mj()->body_rootid[prog_.bucket];
+}
+
+void GraspAndPlace::reset(TaskSlot& t) const {
+  grasp_and_place_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
+}
+
+void GraspAndPlace::apply_actions(const float* a, TaskSlot& t) const {
+  grasp_and_place_apply_actions(prog_, a, world_rows(t));
+}
+
+bool GraspAndPlace::evaluate(TaskSlot& t, double* terms) const {
+  return grasp_and_place_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
+}
+
+void GraspAndPlace::observe(const TaskSlot& t, float* obs) const {
+  grasp_and_place_observe(prog_, world_rows(t), *t.task, obs);
+}
 
 const TaskSpec& grasp_and_place_spec() {
   static const TaskSpec spec = make_spec();

@@ -1,12 +1,11 @@
-// push_block: Push Block (the original's ShadowHandPushBlock); defaults in push_block.yaml,
-// decisions in README.md. Each hand pushes its own block to its own goal on the table.
+// push_block: the spec, the YAML, the scene and the host half of PushBlock (push_block.h).
 #include <cmath>
 
 #include <mujoco/mujoco.h>
 
 #include "core/error.h"
 #include "core/yaml.h"
-#include "tasks/manipulation_family.h"
+#include "tasks/push_block/push_block.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -14,20 +13,10 @@ namespace bidex::tasks {
 
 namespace {
 
-struct PushParams {
-  manip::CommonParams common;
-  manip::TableParams table;
-  manip::BlockPair blocks;  // block1 (left hand's), block2 (right hand's); place = goals
-  // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target)
-  double offset = 2, goal_scale = 5, goal_offset = 0.8;
-  double success_tolerance = 0.1;         // each block this close to its goal
-  double max_tip_distance = 1.2;          // a hand's fingertip sum this far ends the episode
-};
-
-PushParams load(const std::string& file) {
+PushBlockParams load(const std::string& file) {
   const YamlView root = YamlView::load_file(file);
   root.allow_keys({"episode_length", "hands", "base", "table", "blocks", "reward", "termination"});
-  PushParams p;
+  PushBlockParams p;
   p.common = manip::load_common(root, file);
   p.table = manip::load_table(root.child("table"));
   p.blocks = manip::load_block_pair(root.child("blocks"), "goal");
@@ -48,79 +37,6 @@ PushParams load(const std::string& file) {
   return p;
 }
 
-class PushBlock : public manip::ManipTask {
- public:
-  PushBlock(const TaskSpec& spec, PushParams p) : ManipTask(spec, p.common), p_(std::move(p)) {}
-
-  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
-                          const sim::PhysicsOptions& physics) const override {
-    sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
-    sb.add_object(manip::table("table", p_.table));
-    const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
-    for (int i = 0; i < 2; ++i) {
-      const std::string n = std::to_string(i + 1);
-      const auto& b = p_.blocks;
-      auto o = manip::cube("block" + n, b.edge, b.density, b.friction, b.start[i], q);
-      if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
-      sb.add_object(o);
-      sb.add_object(manip::marker_box("goal" + n, p_.blocks.edge / 2, p_.blocks.place[i], q,
-                                      {o.rgba[0], o.rgba[1], o.rgba[2], 0.3}));
-    }
-    return sb;
-  }
-
-  void bind(const sim::SimModel& model) override {
-    bind_hands(model);
-    for (int i = 0; i < 2; ++i) {
-      const auto& o = manip::object_index(model, spec().id, "block" + std::to_string(i + 1));
-      body_[i] = o.body;
-      tree_[i] = model.mj()->body_rootid[o.body];
-    }
-    t_offset_ = spec().term_index("offset");
-    t_left_ = spec().term_index("left_hand");
-    t_right_ = spec().term_index("right_hand");
-    t_goal_ = spec().term_index("goal");
-  }
-
-  void reset(TaskSlot& t) const override {
-    // blocks back at their start poses (the simulation's reset); goals fixed
-    for (int i = 0; i < 2; ++i) {
-      for (int k = 0; k < 3; ++k) t.task->goal[i][k] = p_.blocks.place[i][k];
-      const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
-      for (int k = 0; k < 4; ++k) t.task->goal[i][3 + k] = q[k];
-    }
-  }
-
-  bool evaluate(TaskSlot& t, double* terms) const override {
-    const auto& v = t.state;
-    const double* b1 = v.xpos + 3 * body_[0];
-    const double* b2 = v.xpos + 3 * body_[1];
-    const double d_left = tip_distance_sum(hands_[1], v, b1);
-    const double d_right = tip_distance_sum(hands_[0], v, b2);
-    const double e1 = math::dist3(b1, p_.blocks.place[0].data());
-    const double e2 = math::dist3(b2, p_.blocks.place[1].data());
-    terms[t_offset_] = p_.offset;
-    terms[t_left_] = -d_left;
-    terms[t_right_] = -d_right;
-    terms[t_goal_] = p_.goal_scale * (p_.goal_offset - (e1 + e2));
-    if (e1 <= p_.success_tolerance && e2 <= p_.success_tolerance) t.task->success = true;
-    return p_.max_tip_distance > 0 &&
-           (d_left >= p_.max_tip_distance || d_right >= p_.max_tip_distance);
-  }
-
-  void observe(const TaskSlot& t, float* obs) const override {
-    float* o = observe_hands(t, obs);
-    observe_object(t.state, body_[0], tree_[0], o);
-    manip::put3(o + 13, t.state.xpos + 3 * body_[0]);
-    manip::put3(o + 16, t.state.xpos + 3 * body_[1]);
-  }
-
- private:
-  PushParams p_;
-  int body_[2] = {-1, -1}, tree_[2] = {-1, -1};
-  int t_offset_ = -1, t_left_ = -1, t_right_ = -1, t_goal_ = -1;
-};
-
 TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
       "push_block", "Push Block", "ShadowHandPushBlock", HumanAge{5, 6, "5-6", false},
@@ -140,6 +56,68 @@ TaskSpec make_spec() {
 }
 
 }  // namespace
+
+PushBlock::PushBlock(const TaskSpec& spec, PushBlockParams p)
+    : ManipTask(spec, p.common), p_(std::move(p)) {
+  PushBlockProgram& g = prog_;
+  const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
+  for (int i = 0; i < 2; ++i) {
+    for (int k = 0; k < 3; ++k) g.goal[i][k] = p_.blocks.place[i][k];
+    for (int k = 0; k < 4; ++k) g.goal[i][3 + k] = q[k];
+  }
+  g.offset = p_.offset;
+  g.goal_scale = p_.goal_scale;
+  g.goal_offset = p_.goal_offset;
+  g.success_tolerance = p_.success_tolerance;
+  g.max_tip_distance = p_.max_tip_distance;
+  g.t_offset = spec.term_index("offset");
+  g.t_left = spec.term_index("left_hand");
+  g.t_right = spec.term_index("right_hand");
+  g.t_goal = spec.term_index("goal");
+}
+
+sim::SceneBuilder PushBlock::scene(const sim::HandSpec& right_hand,
+                                   const sim::PhysicsOptions& physics) const {
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+  sb.add_object(manip::table("table", p_.table));
+  const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
+  for (int i = 0; i < 2; ++i) {
+    const std::string n = std::to_string(i + 1);
+    const auto& b = p_.blocks;
+    auto o = manip::cube("block" + n, b.edge, b.density, b.friction, b.start[i], q);
+    if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
+    sb.add_object(o);
+    sb.add_object(manip::marker_box("goal" + n, p_.blocks.edge / 2, p_.blocks.place[i], q,
+                                    {o.rgba[0], o.rgba[1], o.rgba[2], 0.3}));
+  }
+  return sb;
+}
+
+void PushBlock::bind(const sim::SimModel& model) {
+  bind_hands(model, prog_.hands);
+  for (int i = 0; i < 2; ++i) {
+    const auto& o = manip::object_index(model, spec().id, "block" + std::to_string(i + 1));
+    prog_.body[i] = o.body;
+    prog_.root_tree[i] = model.mj()->body_rootid[o.body];
+  }
+}
+
+void PushBlock::reset(TaskSlot& t) const {
+  push_block_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
+}
+
+void PushBlock::apply_actions(const float* a, TaskSlot& t) const {
+  push_block_apply_actions(prog_, a, world_rows(t));
+}
+
+bool PushBlock::evaluate(TaskSlot& t, double* terms) const {
+  return push_block_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
+}
+
+void PushBlock::observe(const TaskSlot& t, float* obs) const {
+  push_block_observe(prog_, world_rows(t), *t.task, obs);
+}
 
 const TaskSpec& push_block_spec() {
   static const TaskSpec spec = make_spec();

@@ -1,13 +1,12 @@
-// re_orientation: Re-Orientation (the original's ShadowHandReOrientation), on free bases as the
-// paper specifies; defaults in re_orientation.yaml, decisions in README.md. Each hand holds a
-// cube and turns it to the goal orientation; both reached at once -> bonus and new goals.
+// re_orientation: the spec, the YAML, the scene and the host half of ReOrientation
+// (re_orientation.h).
 #include <cmath>
 
 #include <mujoco/mujoco.h>
 
 #include "core/error.h"
 #include "core/yaml.h"
-#include "tasks/manipulation_family.h"
+#include "tasks/re_orientation/re_orientation.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -15,24 +14,10 @@ namespace bidex::tasks {
 
 namespace {
 
-struct ReorientParams {
-  manip::CommonParams common;
-  double edge = 0.05, density = 1000, friction = 1;
-  sim::Vec3 start[2]{}, goal[2]{};
-  // reset
-  double object_position_noise = 0.01;
-  bool random_object_rotation = true, random_goal_rotation = true;
-  double hand_dof_noise = 0.2;
-  // reward: dist_scale (d1 + d2) + rot_scale / (theta_i + rot_eps) + action_penalty sum(a^2)
-  double dist_scale = -10, rot_scale = 1, rot_eps = 0.1, action_penalty = -0.0002;
-  double goal_bonus = 500, rotation_tolerance = 0.1;
-  double drop_height = 0.2;
-};
-
-ReorientParams load(const std::string& file) {
+ReOrientationParams load(const std::string& file) {
   const YamlView root = YamlView::load_file(file);
   root.allow_keys({"episode_length", "hands", "base", "objects", "reset", "reward", "termination"});
-  ReorientParams p;
+  ReOrientationParams p;
   p.common = manip::load_common(root, file);
   {
     auto b = root.child("objects");
@@ -76,118 +61,6 @@ ReorientParams load(const std::string& file) {
   return p;
 }
 
-class ReOrientation : public manip::ManipTask {
- public:
-  ReOrientation(const TaskSpec& spec, ReorientParams p)
-      : ManipTask(spec, p.common), p_(std::move(p)) {}
-
-  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
-                          const sim::PhysicsOptions& physics) const override {
-    sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
-    for (int i = 0; i < 2; ++i) {
-      const std::string n = std::to_string(i + 1);
-      auto o = manip::cube("object" + n, p_.edge, p_.density, p_.friction, p_.start[i],
-                           {1, 0, 0, 0});
-      if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
-      sb.add_object(o);
-      sb.add_object(manip::marker_box("goal" + n, p_.edge / 2, p_.goal[i], {1, 0, 0, 0},
-                                      {o.rgba[0], o.rgba[1], o.rgba[2], 0.3}));
-    }
-    return sb;
-  }
-
-  void bind(const sim::SimModel& model) override {
-    bind_hands(model);
-    for (int i = 0; i < 2; ++i) {
-      const std::string n = std::to_string(i + 1);
-      const auto& o = manip::object_index(model, spec().id, "object" + n);
-      const auto& g = manip::object_index(model, spec().id, "goal" + n);
-      if (o.qpos_adr < 0 || g.mocap < 0)
-        throw ModelError("re_orientation: object" + n + " is not free or goal" + n + " not a marker");
-      obj_[i] = {o.body, o.qpos_adr, g.mocap, model.mj()->body_rootid[o.body]};
-    }
-    t_pos_ = spec().term_index("position");
-    t_rot_[0] = spec().term_index("rotation1");
-    t_rot_[1] = spec().term_index("rotation2");
-    t_bonus_ = spec().term_index("goal_bonus");
-    t_action_ = spec().term_index("action_penalty");
-  }
-
-  // Both goals get one new random orientation (the original's shared goal rotation).
-  void new_goals(TaskSlot& t) const {
-    double q[4] = {1, 0, 0, 0};
-    if (p_.random_goal_rotation) math::random_rotation(q, *t.rng);
-    for (int i = 0; i < 2; ++i) {
-      auto& g = t.task->goal[i];
-      for (int k = 0; k < 3; ++k) g[k] = p_.goal[i][k];
-      for (int k = 0; k < 4; ++k) g[3 + k] = q[k];
-      if (t.data) {
-        for (int k = 0; k < 3; ++k) t.data->mocap_pos[3 * obj_[i].mocap + k] = g[k];
-        for (int k = 0; k < 4; ++k) t.data->mocap_quat[4 * obj_[i].mocap + k] = g[3 + k];
-      }
-    }
-  }
-
-  void reset(TaskSlot& t) const override {
-    auto& rng = *t.rng;
-    mjData* d = t.data;
-    randomise_hand_joints(hands_, p_.hand_dof_noise, t);
-    double noise[3] = {0, 0, 0};
-    if (p_.object_position_noise > 0)
-      for (double& x : noise) x = p_.object_position_noise * rng.uniform(-1, 1);
-    double qo[4] = {1, 0, 0, 0};
-    if (p_.random_object_rotation) math::random_rotation(qo, rng);
-    for (int i = 0; i < 2; ++i) {
-      double* q = d->qpos + obj_[i].qpos;
-      for (int k = 0; k < 3; ++k) q[k] = p_.start[i][k] + noise[k];
-      for (int k = 0; k < 4; ++k) q[3 + k] = qo[k];
-    }
-    new_goals(t);
-  }
-
-  void goal_error(const TaskSlot& t, int i, double* d, double* theta) const {
-    const auto& g = t.task->goal[i];
-    *d = math::dist3(t.state.xpos + 3 * obj_[i].body, g.data());
-    *theta = math::rot_distance(t.state.xquat + 4 * obj_[i].body, g.data() + 3);
-  }
-
-  bool evaluate(TaskSlot& t, double* terms) const override {
-    double d[2], th[2];
-    bool fell = false;
-    for (int i = 0; i < 2; ++i) {
-      goal_error(t, i, &d[i], &th[i]);
-      terms[t_rot_[i]] = p_.rot_scale / (std::abs(th[i]) + p_.rot_eps);
-      if (t.state.xpos[3 * obj_[i].body + 2] <= p_.drop_height) fell = true;
-    }
-    terms[t_pos_] = p_.dist_scale * (d[0] + d[1]);
-    terms[t_action_] = p_.action_penalty * action_sq(t);
-    // both objects at their goal orientations at once: bonus, success, new goals
-    if (th[0] < p_.rotation_tolerance && th[1] < p_.rotation_tolerance) {
-      terms[t_bonus_] = p_.goal_bonus;
-      t.task->success = true;
-      new_goals(t);
-    }
-    return fell;
-  }
-
-  void observe(const TaskSlot& t, float* obs) const override {
-    float* o = observe_hands(t, obs);
-    for (int i = 0; i < 2; ++i) {
-      const int b = obj_[i].body;
-      observe_object(t.state, b, obj_[i].root_tree, o);
-      observe_goal(t.task->goal[i].data(), t.state.xquat + 4 * b, o + 13);
-      o += 24;
-    }
-  }
-
- private:
-  ReorientParams p_;
-  struct Obj {
-    int body = -1, qpos = -1, mocap = -1, root_tree = -1;
-  } obj_[2];
-  int t_pos_ = -1, t_rot_[2] = {-1, -1}, t_bonus_ = -1, t_action_ = -1;
-};
-
 TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
       "re_orientation", "Re-Orientation", "ShadowHandReOrientation", HumanAge{18, 18, "18", false},
@@ -210,6 +83,90 @@ TaskSpec make_spec() {
 }
 
 }  // namespace
+
+ReOrientation::ReOrientation(const TaskSpec& spec, ReOrientationParams p)
+    : ManipTask(spec, p.common), p_(std::move(p)) {
+  ReOrientationProgram& g = prog_;
+  g.nact = spec.act.dim();
+  for (int i = 0; i < 2; ++i)
+    for (int k = 0; k < 3; ++k) {
+      g.obj[i].start[k] = p_.start[i][k];
+      g.obj[i].goal[k] = p_.goal[i][k];
+    }
+  g.object_position_noise = p_.object_position_noise;
+  g.random_object_rotation = p_.random_object_rotation;
+  g.random_goal_rotation = p_.random_goal_rotation;
+  g.hand_dof_noise = p_.hand_dof_noise;
+  g.dist_scale = p_.dist_scale;
+  g.rot_scale = p_.rot_scale;
+  g.rot_eps = p_.rot_eps;
+  g.action_penalty = p_.action_penalty;
+  g.goal_bonus = p_.goal_bonus;
+  g.rotation_tolerance = p_.rotation_tolerance;
+  g.drop_height = p_.drop_height;
+  g.t_pos = spec.term_index("position");
+  g.t_rot[0] = spec.term_index("rotation1");
+  g.t_rot[1] = spec.term_index("rotation2");
+  g.t_bonus = spec.term_index("goal_bonus");
+  g.t_action = spec.term_index("action_penalty");
+}
+
+sim::SceneBuilder ReOrientation::scene(const sim::HandSpec& right_hand,
+                                       const sim::PhysicsOptions& physics) const {
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+  for (int i = 0; i < 2; ++i) {
+    const std::string n = std::to_string(i + 1);
+    auto o = manip::cube("object" + n, p_.edge, p_.density, p_.friction, p_.start[i],
+                         {1, 0, 0, 0});
+    if (i == 1) o.rgba = {0.25, 0.45, 0.85, 1};
+    sb.add_object(o);
+    sb.add_object(manip::marker_box("goal" + n, p_.edge / 2, p_.goal[i], {1, 0, 0, 0},
+                                    {o.rgba[0], o.rgba[1], o.rgba[2], 0.3}));
+  }
+  return sb;
+}
+
+void ReOrientation::bind(const sim::SimModel& model) {
+  bind_hands(model, prog_.hands);
+  for (int i = 0; i < 2; ++i) {
+    const std::string n = std::to_string(i + 1);
+    const auto& o = manip::object_index(model, spec().id, "object" + n);
+    const auto& g = manip::object_index(model, spec().id, "goal" + n);
+    if (o.qpos_adr < 0 || g.mocap < 0)
+      throw ModelError("re_orientation: object" + n + " is not free or goal" + n +
+                       " not a marker");
+    auto& ob = prog_.obj[i];
+    ob.body = o.body;
+    ob.qpos = o.qpos_adr;
+    ob.mocap = g.mocap;
+    ob.root_tree = model.mj()->body_rootid[o.body];
+  }
+}
+
+void ReOrientation::reset(TaskSlot& t) const {
+  re_orientation_reset(prog_, reset_rows(t), *t.task, *t.rng);
+  end_reset(t);
+}
+
+void ReOrientation::apply_actions(const float* a, TaskSlot& t) const {
+  re_orientation_apply_actions(prog_, a, world_rows(t));
+}
+
+bool ReOrientation::evaluate(TaskSlot& t, double* terms) const {
+  const bool end = re_orientation_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
+  if (t.data)
+    for (int i = 0; i < 2; ++i) {
+      const int m = prog_.obj[i].mocap;
+      const auto& g = t.task->goal[i];
+      for (int k = 0; k < 3; ++k) t.data->mocap_pos[3 * m + k] = g[k];
+      for (int k = 0; k < 4; ++k) t.data->mocap_quat[4 * m + k] = g[3 + k];
+    }
+  return end;
+}
+
+void ReOrientation::observe(const TaskSlot& t, float* obs) const {
+  re_orientation_observe(prog_, world_rows(t), *t.task, obs);
+}
 
 const TaskSpec& re_orientation_spec() {
   static const TaskSpec spec = make_spec();

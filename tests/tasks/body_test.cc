@@ -143,8 +143,9 @@ TEST_CASE("catch bodies with float rows agree with double rows on a stepped catc
     tasks::SlotState sd = env->slot_state(s), sf = sd;
     double td[tasks::kMaxTerms] = {};
     float tf[tasks::kMaxTerms] = {};
-    const bool dd = tasks::catch_evaluate(prog, wd, sd, td);
-    const bool df = tasks::catch_evaluate(prog, wf, sf, tf);
+    SlotRng rd = SlotRng::make(1, 0, 0), rf = rd;
+    const bool dd = tasks::catch_evaluate(prog, wd, sd, rd, td);
+    const bool df = tasks::catch_evaluate(prog, wf, sf, rf, tf);
     CHECK(dd == df);
     CHECK(sd.success == sf.success);
     CHECK(sd.bonus_paid == sf.bonus_paid);

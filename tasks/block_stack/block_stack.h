@@ -1,0 +1,42 @@
+// block_stack: Stack Block (the original's ShadowHandBlockStack); defaults in block_stack.yaml,
+// decisions in README.md, stages in block_stack_body.h. The left hand's block 1 goes on top of
+// the right hand's block 2.
+#pragma once
+
+#include "tasks/block_stack/block_stack_body.h"
+#include "tasks/manipulation_family.h"
+
+namespace bidex::tasks {
+
+struct BlockStackParams {
+  manip::CommonParams common;
+  manip::TableParams table;
+  manip::BlockPair blocks;  // block1 (left hand's, on top), block2 (right hand's); place = targets
+  // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target) [+ stack bonus]
+  double offset = 1.5, goal_scale = 2, goal_offset = 0.24;
+  double goal_gate = 0;               // > 0: the goal term only while both hands' sums < it
+  double stack_bonus_scale = 0;       // the original's 50 (0: the paper's formula)
+  double stack_tolerance = 0.07;      // each block this close to its target
+  double height_tolerance = 0.03;     // |z(target1) - z(block1)| below it
+  double max_tip_distance = 0.75;
+};
+
+class BlockStack : public manip::ManipTask {
+ public:
+  BlockStack(const TaskSpec& spec, BlockStackParams p);
+  sim::SceneBuilder scene(const sim::HandSpec& right_hand,
+                          const sim::PhysicsOptions& physics) const override;
+  void bind(const sim::SimModel& model) override;
+  void reset(TaskSlot& slot) const override;
+  void apply_actions(const float* a, TaskSlot& slot) const override;
+  bool evaluate(TaskSlot& slot, double* terms) const override;
+  void observe(const TaskSlot& slot, float* obs) const override;
+  // What the stage bodies need, complete after bind().
+  const BlockStackProgram& program() const { return prog_; }
+
+ private:
+  BlockStackParams p_;
+  BlockStackProgram prog_;
+};
+
+}  // namespace bidex::tasks
