@@ -24,6 +24,9 @@ struct WorldRows {
   // inputs (written by apply_actions)
   Real* ctrl = nullptr;                   // nu: actuator targets (rad)
   Real* base_wrench = nullptr;            // nwrench: force (N) and torque (N m) per hand base
+  // goal markers (mocap bodies), moved by evaluate when a task draws new goals mid-episode
+  Real* mocap_pos = nullptr;              // nmocap x 3
+  Real* mocap_quat = nullptr;             // nmocap x 4
 };
 
 // What a reset writes before the backend's position pass: the generalized state, the actuator

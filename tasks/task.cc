@@ -22,6 +22,15 @@ sim::WorldRows<double> world_rows(const sim::SlotView& v) {
   return w;
 }
 
+sim::WorldRows<double> world_rows(const TaskSlot& t) {
+  sim::WorldRows<double> w = world_rows(t.state);
+  if (t.data) {
+    w.mocap_pos = t.data->mocap_pos;
+    w.mocap_quat = t.data->mocap_quat;
+  }
+  return w;
+}
+
 sim::ResetRows<double> reset_rows(TaskSlot& t) {
   sim::ResetRows<double> r;
   r.qpos = t.data->qpos;

@@ -28,7 +28,8 @@ struct TaskSlot {
 
 // A slot's rows as a stage body sees them (sim/state_view.h): the batch's rows.
 sim::WorldRows<double> world_rows(const sim::SlotView& v);
-inline sim::WorldRows<double> world_rows(const TaskSlot& t) { return world_rows(t.state); }
+// The slot's rows with its goal markers (the slot's mjData mocap arrays).
+sim::WorldRows<double> world_rows(const TaskSlot& t);
 // What a reset body writes: the slot's MuJoCo state and goal markers, and the batch's ctrl row
 // (the next step's input); end_reset then copies that row into the MuJoCo data's ctrl.
 sim::ResetRows<double> reset_rows(TaskSlot& t);

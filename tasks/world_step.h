@@ -50,6 +50,8 @@ BIDEX_HD inline sim::WorldRows<float> world_rows(const WorldArrays& a, int w) {
   r.subtree_com = a.subtree_com + static_cast<int64_t>(w) * a.nbody * 3;
   r.ctrl = a.ctrl + static_cast<int64_t>(w) * a.nu;
   r.base_wrench = a.base_wrench + static_cast<int64_t>(w) * a.nwrench;
+  r.mocap_pos = a.mocap_pos + static_cast<int64_t>(w) * a.nmocap * 3;
+  r.mocap_quat = a.mocap_quat + static_cast<int64_t>(w) * a.nmocap * 4;
   return r;
 }
 

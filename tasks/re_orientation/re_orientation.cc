@@ -153,15 +153,7 @@ void ReOrientation::apply_actions(const float* a, TaskSlot& t) const {
 }
 
 bool ReOrientation::evaluate(TaskSlot& t, double* terms) const {
-  const bool end = re_orientation_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-  if (t.data)
-    for (int i = 0; i < 2; ++i) {
-      const int m = prog_.obj[i].mocap;
-      const auto& g = t.task->goal[i];
-      for (int k = 0; k < 3; ++k) t.data->mocap_pos[3 * m + k] = g[k];
-      for (int k = 0; k < 4; ++k) t.data->mocap_quat[4 * m + k] = g[3 + k];
-    }
-  return end;
+  return re_orientation_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
 }
 
 void ReOrientation::observe(const TaskSlot& t, float* obs) const {

@@ -31,8 +31,7 @@ class ReOrientation : public manip::ManipTask {
   void bind(const sim::SimModel& model) override;
   void reset(TaskSlot& slot) const override;
   void apply_actions(const float* a, TaskSlot& slot) const override;
-  // The body's evaluate, then the goal markers moved to the goals (new goals come mid-episode;
-  // the GPU path's evaluate has no marker rows and moves them at resets only).
+  // The body's evaluate, which also moves the goal markers when it draws new goals.
   bool evaluate(TaskSlot& slot, double* terms) const override;
   void observe(const TaskSlot& slot, float* obs) const override;
   // What the stage bodies need, complete after bind().

@@ -48,6 +48,18 @@ BIDEX_HD inline void re_orientation_new_goals(const ReOrientationProgram& p, Slo
   }
 }
 
+// The goal markers at the goals (no-op without marker rows).
+template <class Real>
+BIDEX_HD void re_orientation_place_markers(const ReOrientationProgram& p, const SlotState& st,
+                                           Real* mocap_pos, Real* mocap_quat) {
+  if (!mocap_pos || !mocap_quat) return;
+  for (int i = 0; i < 2; ++i) {
+    const int m = p.obj[i].mocap;
+    for (int k = 0; k < 3; ++k) mocap_pos[3 * m + k] = static_cast<Real>(st.goal[i][k]);
+    for (int k = 0; k < 4; ++k) mocap_quat[4 * m + k] = static_cast<Real>(st.goal[i][3 + k]);
+  }
+}
+
 // New episode: hand joint noise, one shared position-noise sample and one orientation for the
 // cubes, new goals (and their markers).
 template <class Real>
@@ -65,11 +77,7 @@ BIDEX_HD void re_orientation_reset(const ReOrientationProgram& p, const sim::Res
     for (int k = 0; k < 4; ++k) q[3 + k] = static_cast<Real>(qo[k]);
   }
   re_orientation_new_goals(p, st, rng);
-  for (int i = 0; i < 2; ++i) {
-    const int m = p.obj[i].mocap;
-    for (int k = 0; k < 3; ++k) r.mocap_pos[3 * m + k] = static_cast<Real>(st.goal[i][k]);
-    for (int k = 0; k < 4; ++k) r.mocap_quat[4 * m + k] = static_cast<Real>(st.goal[i][3 + k]);
-  }
+  re_orientation_place_markers(p, st, r.mocap_pos, r.mocap_quat);
 }
 
 template <class Real>
@@ -90,7 +98,7 @@ BIDEX_HD void re_orientation_goal_error(const ReOrientationProgram& p,
 }
 
 // The reward terms; both cubes at their goal orientations at once: bonus, success and new goals
-// (drawn from the world's stream; the goal markers are the caller's, see re_orientation.h).
+// (drawn from the world's stream) with their markers moved.
 // Ends when a cube falls.
 template <class Real>
 BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
@@ -112,6 +120,7 @@ BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
     terms[p.t_bonus] = Real(p.goal_bonus);
     st.success = true;
     re_orientation_new_goals(p, st, rng);
+    re_orientation_place_markers(p, st, w.mocap_pos, w.mocap_quat);
   }
   return fell;
 }
