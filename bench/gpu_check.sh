@@ -11,8 +11,8 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=$(realpath -m "${1:?OUTDIR}")
-# the tasks whose stages run on the GPU (tasks/gpu_families.h)
-tasks=${2:-hand_over,catch_underarm,catch_over2underarm,catch_abreast,two_catch_underarm,catch_underarm_raise,hand_over_free,lift_underarm,door_open_outward,door_close_inward,door_open_inward,door_close_outward}
+# every task (each runs on the GPU: tasks/gpu_families.h)
+tasks=${2:-hand_over,catch_underarm,catch_over2underarm,catch_abreast,two_catch_underarm,catch_underarm_raise,hand_over_free,lift_underarm,door_open_outward,door_close_inward,door_open_inward,door_close_outward,bottle_cap,push_block,re_orientation,block_stack,grasp_and_place,swing_cup,scissors,pen,switch,pour_water}
 bidex=${BIDEX:-build/apps/bidex}
 mkdir -p "$out"
 "$bidex" bench agree --task "$tasks" --episodes 1000 --slots 1024 --out "$out/agree.json" || exit 1
