@@ -160,10 +160,11 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--nconmax", wc->nconmax, "Contacts per world (0: the scene's gpu_nconmax)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
-  warp->add_option("--physics", wc->physics_file, "Physics YAML (default: configs/sim/physics.yaml)");
+  warp->add_option("--physics", wc->physics_file,
+                   "Physics YAML (default: configs/sim/physics.yaml)");
   warp->add_option("--seed", wc->seed, "Seed of the random inputs")->capture_default_str();
   warp->add_flag("!--no-stages", wc->stages,
-                 "Skip the whole task step (task stages on the GPU, where the task's family has them)");
+                 "Skip the whole task step (the task stages on the GPU)");
   warp->add_option("--determinism-steps", wc->determinism_steps,
                    "Steps of two fresh backends compared for bitwise equality, per task (0: skip)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
@@ -189,7 +190,8 @@ void add_bench_command(CLI::App& app) {
   agree->add_option("--seed", ac->seed, "Seed")->capture_default_str();
   agree->add_option("--out,-o", *agree_out, "Write the JSON here (atomically) instead of stdout");
   agree->footer("Example:\n  bidex bench agree --task catch_underarm,hand_over --episodes 1000");
-  agree->callback([ac, agree_out] { emit(bench::run_agree_bench(*ac), *agree_out, command_line()); });
+  agree->callback(
+      [ac, agree_out] { emit(bench::run_agree_bench(*ac), *agree_out, command_line()); });
 
   // bench physics
   auto ps = std::make_shared<bench::PhysicsStudyConfig>();

@@ -202,8 +202,8 @@ class Bridge:
                   inputs=[self.root_body, self.base_wrench, d.xpos, d.xipos, d.xfrc_applied])
       mjw.step(m, d)
     wp.launch(_check, dim=self.nworld,
-              inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow, self.fault, self.fault_count,
-                      self.overflow_count, self.reset_mask])
+              inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
+                      self.fault, self.fault_count, self.overflow_count, self.reset_mask])
 
   def raw_step(self):
     """The same substeps without bidex's passes (benchmarks compare the two)."""
