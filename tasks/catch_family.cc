@@ -125,7 +125,7 @@ std::unique_ptr<Task> make_catch_task(const TaskSpec& spec, const std::string& c
 // ---- task ---------------------------------------------------------------------------------
 
 CatchTask::CatchTask(const TaskSpec& spec, CatchParams params)
-    : Task(spec, params.file), p_(std::move(params)) {
+    : BodyTask(spec, params.file), p_(std::move(params)) {
   CatchProgram& g = prog_;
   g.nact = spec.act.dim();
   g.nobj = static_cast<int>(p_.objects.size());
@@ -205,25 +205,8 @@ void CatchTask::bind(const sim::SimModel& model) {
   }
 }
 
-void CatchTask::reset(TaskSlot& t) const {
-  catch_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void CatchTask::apply_actions(const float* a, TaskSlot& t) const {
-  catch_apply_actions(prog_, a, world_rows(t));
-}
-
 void CatchTask::goal_error(const TaskSlot& t, int i, double* d, double* theta) const {
   catch_goal_error(prog_, world_rows(t), *t.task, i, d, theta);
-}
-
-bool CatchTask::evaluate(TaskSlot& t, double* terms) const {
-  return catch_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void CatchTask::observe(const TaskSlot& t, float* obs) const {
-  catch_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 }  // namespace bidex::tasks

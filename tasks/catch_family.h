@@ -13,6 +13,7 @@
 #include "tasks/hands.h"
 #include "tasks/objects.h"
 #include "tasks/task.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -70,7 +71,9 @@ std::unique_ptr<Task> make_catch_task(const TaskSpec& spec, const std::string& c
     return make_catch_task(id##_spec(), config_file);                             \
   }
 
-class CatchTask : public Task {
+BIDEX_STAGE_BODIES(Catch, CatchProgram, catch_);
+
+class CatchTask : public BodyTask<Task, CatchBodies> {
  public:
   CatchTask(const TaskSpec& spec, CatchParams params);
 
@@ -79,19 +82,12 @@ class CatchTask : public Task {
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
 
   // Distance and rotation distance of object i to its goal (the reward's d and theta).
   void goal_error(const TaskSlot& slot, int i, double* d, double* theta) const;
-  // What the stage bodies (tasks/catch_body.h) need, complete after bind().
-  const CatchProgram& program() const { return prog_; }
 
  private:
   CatchParams p_;
-  CatchProgram prog_;
 };
 
 }  // namespace bidex::tasks

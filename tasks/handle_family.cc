@@ -223,7 +223,7 @@ std::string door_mjcf(const HandleParams::Door& d) {
 // ---- task ---------------------------------------------------------------------------------
 
 HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
-    : Task(spec, params.file), p_(std::move(params)) {
+    : BodyTask(spec, params.file), p_(std::move(params)) {
   HandleProgram& g = prog_;
   g.t_const = spec.term_index("constant");
   g.t_right = spec.term_index("right_hand");
@@ -316,15 +316,6 @@ void HandleTask::bind(const sim::SimModel& model) {
   g.root_tree = m->body_rootid[g.body];
 }
 
-void HandleTask::reset(TaskSlot& t) const {
-  handle_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void HandleTask::apply_actions(const float* a, TaskSlot& t) const {
-  handle_apply_actions(prog_, a, world_rows(t));
-}
-
 void HandleTask::handle_point(const sim::SlotView& v, int h, double* out) const {
   tasks::handle_point(prog_, world_rows(v), h, out);
 }
@@ -335,14 +326,6 @@ double HandleTask::hand_distance(const sim::SlotView& v, int h) const {
 
 double HandleTask::target_distance(const TaskSlot& t) const {
   return handle_target_distance(prog_, world_rows(t), *t.task);
-}
-
-bool HandleTask::evaluate(TaskSlot& t, double* terms) const {
-  return handle_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void HandleTask::observe(const TaskSlot& t, float* obs) const {
-  handle_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 }  // namespace bidex::tasks

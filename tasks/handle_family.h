@@ -14,6 +14,7 @@
 #include "tasks/handle_body.h"
 #include "tasks/hands.h"
 #include "tasks/task.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -97,7 +98,9 @@ constexpr double kHingeY = 0.42, kLeafWidth = 0.415, kLeafHeight = 0.93, kLeafTh
 constexpr double kHandleFromHinge = 0.39, kHandleOut = 0.04;
 }  // namespace handle_geometry
 
-class HandleTask : public Task {
+BIDEX_STAGE_BODIES(Handle, HandleProgram, handle_);
+
+class HandleTask : public BodyTask<Task, HandleBodies> {
  public:
   HandleTask(const TaskSpec& spec, HandleParams params);
 
@@ -106,10 +109,6 @@ class HandleTask : public Task {
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
 
   // World positions of the right (h = 0) and left (h = 1) handle points.
   void handle_point(const sim::SlotView& v, int h, double* out) const;
@@ -121,12 +120,9 @@ class HandleTask : public Task {
   int hinge_qpos(int h) const { return prog_.hinge_qpos[h]; }
   int hinge_dof(int h) const { return prog_.hinge_dof[h]; }
   const HandRig& hand(int h) const { return prog_.hands[h]; }
-  // What the stage bodies (tasks/handle_body.h) need, complete after bind().
-  const HandleProgram& program() const { return prog_; }
 
  private:
   HandleParams p_;
-  HandleProgram prog_;
 };
 
 }  // namespace bidex::tasks

@@ -323,7 +323,7 @@ void quat_axis(double* q, int axis, double angle) {
 // ---- task ---------------------------------------------------------------------------------
 
 TableTask::TableTask(TableKind kind, const TaskSpec& spec, TableParams params)
-    : Task(spec, params.file), kind_(kind), p_(std::move(params)) {
+    : BodyTask(spec, params.file), kind_(kind), p_(std::move(params)) {
   TableProgram& g = prog_;
   g.kind = kind;
   g.hand_dof_noise = p_.hand_dof_noise;
@@ -592,23 +592,6 @@ void TableTask::bind(const sim::SimModel& model) {
       break;
   }
   pr.root_tree = m->body_rootid[pr.obs_body];
-}
-
-void TableTask::reset(TaskSlot& t) const {
-  table_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void TableTask::apply_actions(const float* a, TaskSlot& t) const {
-  table_apply_actions(prog_, a, world_rows(t));
-}
-
-bool TableTask::evaluate(TaskSlot& t, double* terms) const {
-  return table_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void TableTask::observe(const TaskSlot& t, float* obs) const {
-  table_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 }  // namespace bidex::tasks

@@ -12,6 +12,7 @@
 #include "tasks/hands.h"
 #include "tasks/table_body.h"
 #include "tasks/task.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -72,7 +73,9 @@ std::unique_ptr<Task> make_table_task(TableKind kind, const TaskSpec& spec,
     return make_table_task(kind, id##_spec(), config_file);                     \
   }
 
-class TableTask : public Task {
+BIDEX_STAGE_BODIES(Table, TableProgram, table_);
+
+class TableTask : public BodyTask<Task, TableBodies> {
  public:
   TableTask(TableKind kind, const TaskSpec& spec, TableParams params);
 
@@ -82,18 +85,11 @@ class TableTask : public Task {
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
 
-  // What the stage bodies (tasks/table_body.h) need, complete after bind().
-  const TableProgram& program() const { return prog_; }
 
  private:
   TableKind kind_;
   TableParams p_;
-  TableProgram prog_;
 };
 
 }  // namespace bidex::tasks

@@ -38,9 +38,9 @@ class HostRunner : public StageRunner {
 };
 
 std::unique_ptr<StageRunner> make_host_runner(const Task& task) {
-#define BIDEX_X(name, Task_, Program_, prefix)                     \
+#define BIDEX_X(name, Task_)                     \
   if (auto* t = dynamic_cast<const Task_*>(&task))                 \
-    return std::make_unique<HostRunner<name##Bodies>>(t->program());
+    return std::make_unique<HostRunner<Task_::Bodies>>(t->program());
   BIDEX_GPU_FAMILIES(BIDEX_X)
 #undef BIDEX_X
   return nullptr;
@@ -48,7 +48,7 @@ std::unique_ptr<StageRunner> make_host_runner(const Task& task) {
 
 std::string gpu_families() {
   std::string s;
-#define BIDEX_X(name, Task_, Program_, prefix) s += std::string(s.empty() ? "" : ", ") + #name;
+#define BIDEX_X(name, Task_) s += std::string(s.empty() ? "" : ", ") + #name;
   BIDEX_GPU_FAMILIES(BIDEX_X)
 #undef BIDEX_X
   return s;
@@ -57,7 +57,7 @@ std::string gpu_families() {
 }  // namespace
 
 bool runs_on_warp(const Task& task) {
-#define BIDEX_X(name, Task_, Program_, prefix) \
+#define BIDEX_X(name, Task_) \
   if (dynamic_cast<const Task_*>(&task)) return true;
   BIDEX_GPU_FAMILIES(BIDEX_X)
 #undef BIDEX_X

@@ -77,9 +77,9 @@ class CudaRunner : public StageRunner {
 }  // namespace
 
 std::unique_ptr<StageRunner> make_cuda_runner(const Task& task, uintptr_t stream) {
-#define BIDEX_X(name, Task_, Program_, prefix)     \
+#define BIDEX_X(name, Task_)     \
   if (auto* t = dynamic_cast<const Task_*>(&task)) \
-    return std::make_unique<CudaRunner<name##Bodies>>(t->program(), stream);
+    return std::make_unique<CudaRunner<Task_::Bodies>>(t->program(), stream);
   BIDEX_GPU_FAMILIES(BIDEX_X)
 #undef BIDEX_X
   return nullptr;

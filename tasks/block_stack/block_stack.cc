@@ -64,7 +64,7 @@ TaskSpec make_spec() {
 }  // namespace
 
 BlockStack::BlockStack(const TaskSpec& spec, BlockStackParams p)
-    : ManipTask(spec, p.common), p_(std::move(p)) {
+    : BodyTask(spec, p.common), p_(std::move(p)) {
   BlockStackProgram& g = prog_;
   for (int i = 0; i < 2; ++i)
     for (int k = 0; k < 3; ++k) g.target[i][k] = p_.blocks.place[i][k];
@@ -109,23 +109,6 @@ void BlockStack::bind(const sim::SimModel& model) {
     prog_.body[i] = o.body;
     prog_.root_tree[i] = model.mj()->body_rootid[o.body];
   }
-}
-
-void BlockStack::reset(TaskSlot& t) const {
-  block_stack_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void BlockStack::apply_actions(const float* a, TaskSlot& t) const {
-  block_stack_apply_actions(prog_, a, world_rows(t));
-}
-
-bool BlockStack::evaluate(TaskSlot& t, double* terms) const {
-  return block_stack_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void BlockStack::observe(const TaskSlot& t, float* obs) const {
-  block_stack_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 const TaskSpec& block_stack_spec() {

@@ -5,6 +5,7 @@
 
 #include "tasks/block_stack/block_stack_body.h"
 #include "tasks/manipulation_family.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -21,22 +22,17 @@ struct BlockStackParams {
   double max_tip_distance = 0.75;
 };
 
-class BlockStack : public manip::ManipTask {
+BIDEX_STAGE_BODIES(BlockStack, BlockStackProgram, block_stack_);
+
+class BlockStack : public BodyTask<manip::ManipTask, BlockStackBodies> {
  public:
   BlockStack(const TaskSpec& spec, BlockStackParams p);
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
-  // What the stage bodies need, complete after bind().
-  const BlockStackProgram& program() const { return prog_; }
 
  private:
   BlockStackParams p_;
-  BlockStackProgram prog_;
 };
 
 }  // namespace bidex::tasks

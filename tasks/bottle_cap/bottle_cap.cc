@@ -100,7 +100,7 @@ TaskSpec make_spec() {
 }  // namespace
 
 BottleCap::BottleCap(const TaskSpec& spec, BottleCapParams p)
-    : ManipTask(spec, p.common), p_(std::move(p)) {
+    : BodyTask(spec, p.common), p_(std::move(p)) {
   BottleCapProgram& g = prog_;
   g.cap_point = p_.cap_point;
   g.offset = p_.offset;
@@ -136,23 +136,6 @@ void BottleCap::bind(const sim::SimModel& model) {
   prog_.root_tree = model.mj()->body_rootid[prog_.bottle];
   prog_.cap = mj_name2id(model.mj(), mjOBJ_BODY, "bottle_cap");
   if (prog_.cap < 0) throw ModelError("bottle_cap: the scene lacks the bottle's cap body");
-}
-
-void BottleCap::reset(TaskSlot& t) const {
-  bottle_cap_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void BottleCap::apply_actions(const float* a, TaskSlot& t) const {
-  bottle_cap_apply_actions(prog_, a, world_rows(t));
-}
-
-bool BottleCap::evaluate(TaskSlot& t, double* terms) const {
-  return bottle_cap_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void BottleCap::observe(const TaskSlot& t, float* obs) const {
-  bottle_cap_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 const TaskSpec& bottle_cap_spec() {

@@ -6,6 +6,7 @@
 
 #include "tasks/bottle_cap/bottle_cap_body.h"
 #include "tasks/manipulation_family.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -29,22 +30,17 @@ struct BottleCapParams {
   double max_left_palm = 0.2;     // |b - palm_L| at or above
 };
 
-class BottleCap : public manip::ManipTask {
+BIDEX_STAGE_BODIES(BottleCap, BottleCapProgram, bottle_cap_);
+
+class BottleCap : public BodyTask<manip::ManipTask, BottleCapBodies> {
  public:
   BottleCap(const TaskSpec& spec, BottleCapParams p);
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
-  // What the stage bodies need, complete after bind().
-  const BottleCapProgram& program() const { return prog_; }
 
  private:
   BottleCapParams p_;
-  BottleCapProgram prog_;
 };
 
 }  // namespace bidex::tasks

@@ -101,7 +101,7 @@ TaskSpec make_spec() {
 }  // namespace
 
 GraspAndPlace::GraspAndPlace(const TaskSpec& spec, GraspAndPlaceParams p)
-    : ManipTask(spec, p.common), p_(std::move(p)) {
+    : BodyTask(spec, p.common), p_(std::move(p)) {
   GraspAndPlaceProgram& g = prog_;
   g.decay = p_.decay;
   g.place_scale = p_.place_scale;
@@ -144,23 +144,6 @@ void GraspAndPlace::bind(const sim::SimModel& model) {
   prog_.bucket = manip::object_index(model, spec().id, "bucket").body;
   prog_.object = manip::object_index(model, spec().id, "object").body;
   prog_.bucket_tree = model.mj()->body_rootid[prog_.bucket];
-}
-
-void GraspAndPlace::reset(TaskSlot& t) const {
-  grasp_and_place_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void GraspAndPlace::apply_actions(const float* a, TaskSlot& t) const {
-  grasp_and_place_apply_actions(prog_, a, world_rows(t));
-}
-
-bool GraspAndPlace::evaluate(TaskSlot& t, double* terms) const {
-  return grasp_and_place_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void GraspAndPlace::observe(const TaskSlot& t, float* obs) const {
-  grasp_and_place_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 const TaskSpec& grasp_and_place_spec() {

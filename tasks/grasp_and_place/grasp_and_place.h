@@ -8,6 +8,7 @@
 
 #include "tasks/grasp_and_place/grasp_and_place_body.h"
 #include "tasks/manipulation_family.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -28,22 +29,17 @@ struct GraspAndPlaceParams {
   double max_tip_distance = 1.5;
 };
 
-class GraspAndPlace : public manip::ManipTask {
+BIDEX_STAGE_BODIES(GraspAndPlace, GraspAndPlaceProgram, grasp_and_place_);
+
+class GraspAndPlace : public BodyTask<manip::ManipTask, GraspAndPlaceBodies> {
  public:
   GraspAndPlace(const TaskSpec& spec, GraspAndPlaceParams p);
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
-  // What the stage bodies need, complete after bind().
-  const GraspAndPlaceProgram& program() const { return prog_; }
 
  private:
   GraspAndPlaceParams p_;
-  GraspAndPlaceProgram prog_;
 };
 
 }  // namespace bidex::tasks

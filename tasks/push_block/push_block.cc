@@ -58,7 +58,7 @@ TaskSpec make_spec() {
 }  // namespace
 
 PushBlock::PushBlock(const TaskSpec& spec, PushBlockParams p)
-    : ManipTask(spec, p.common), p_(std::move(p)) {
+    : BodyTask(spec, p.common), p_(std::move(p)) {
   PushBlockProgram& g = prog_;
   const sim::Quat q = manip::quat_rpy(p_.blocks.rpy);
   for (int i = 0; i < 2; ++i) {
@@ -100,23 +100,6 @@ void PushBlock::bind(const sim::SimModel& model) {
     prog_.body[i] = o.body;
     prog_.root_tree[i] = model.mj()->body_rootid[o.body];
   }
-}
-
-void PushBlock::reset(TaskSlot& t) const {
-  push_block_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void PushBlock::apply_actions(const float* a, TaskSlot& t) const {
-  push_block_apply_actions(prog_, a, world_rows(t));
-}
-
-bool PushBlock::evaluate(TaskSlot& t, double* terms) const {
-  return push_block_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void PushBlock::observe(const TaskSlot& t, float* obs) const {
-  push_block_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 const TaskSpec& push_block_spec() {

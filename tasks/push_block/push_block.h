@@ -5,6 +5,7 @@
 
 #include "tasks/manipulation_family.h"
 #include "tasks/push_block/push_block_body.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -18,22 +19,17 @@ struct PushBlockParams {
   double max_tip_distance = 1.2;          // a hand's fingertip sum this far ends the episode
 };
 
-class PushBlock : public manip::ManipTask {
+BIDEX_STAGE_BODIES(PushBlock, PushBlockProgram, push_block_);
+
+class PushBlock : public BodyTask<manip::ManipTask, PushBlockBodies> {
  public:
   PushBlock(const TaskSpec& spec, PushBlockParams p);
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
-  // What the stage bodies need, complete after bind().
-  const PushBlockProgram& program() const { return prog_; }
 
  private:
   PushBlockParams p_;
-  PushBlockProgram prog_;
 };
 
 }  // namespace bidex::tasks

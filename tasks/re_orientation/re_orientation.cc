@@ -85,7 +85,7 @@ TaskSpec make_spec() {
 }  // namespace
 
 ReOrientation::ReOrientation(const TaskSpec& spec, ReOrientationParams p)
-    : ManipTask(spec, p.common), p_(std::move(p)) {
+    : BodyTask(spec, p.common), p_(std::move(p)) {
   ReOrientationProgram& g = prog_;
   g.nact = spec.act.dim();
   for (int i = 0; i < 2; ++i)
@@ -141,23 +141,6 @@ void ReOrientation::bind(const sim::SimModel& model) {
     ob.mocap = g.mocap;
     ob.root_tree = model.mj()->body_rootid[o.body];
   }
-}
-
-void ReOrientation::reset(TaskSlot& t) const {
-  re_orientation_reset(prog_, reset_rows(t), *t.task, *t.rng);
-  end_reset(t);
-}
-
-void ReOrientation::apply_actions(const float* a, TaskSlot& t) const {
-  re_orientation_apply_actions(prog_, a, world_rows(t));
-}
-
-bool ReOrientation::evaluate(TaskSlot& t, double* terms) const {
-  return re_orientation_evaluate(prog_, world_rows(t), *t.task, *t.rng, terms);
-}
-
-void ReOrientation::observe(const TaskSlot& t, float* obs) const {
-  re_orientation_observe(prog_, world_rows(t), *t.task, obs);
 }
 
 const TaskSpec& re_orientation_spec() {

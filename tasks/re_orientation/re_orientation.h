@@ -6,6 +6,7 @@
 
 #include "tasks/manipulation_family.h"
 #include "tasks/re_orientation/re_orientation_body.h"
+#include "tasks/body_task.h"
 
 namespace bidex::tasks {
 
@@ -23,23 +24,17 @@ struct ReOrientationParams {
   double drop_height = 0.2;
 };
 
-class ReOrientation : public manip::ManipTask {
+BIDEX_STAGE_BODIES(ReOrientation, ReOrientationProgram, re_orientation_);
+
+class ReOrientation : public BodyTask<manip::ManipTask, ReOrientationBodies> {
  public:
   ReOrientation(const TaskSpec& spec, ReOrientationParams p);
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
-  void reset(TaskSlot& slot) const override;
-  void apply_actions(const float* a, TaskSlot& slot) const override;
-  // The body's evaluate, which also moves the goal markers when it draws new goals.
-  bool evaluate(TaskSlot& slot, double* terms) const override;
-  void observe(const TaskSlot& slot, float* obs) const override;
-  // What the stage bodies need, complete after bind().
-  const ReOrientationProgram& program() const { return prog_; }
 
  private:
   ReOrientationParams p_;
-  ReOrientationProgram prog_;
 };
 
 }  // namespace bidex::tasks
