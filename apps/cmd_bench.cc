@@ -134,6 +134,10 @@ void add_bench_command(CLI::App& app) {
   pack->add_option("--rounds", pc->rounds, "Alternations of packed and single measurements")
       ->check(CLI::PositiveNumber)->capture_default_str();
   pack->add_option("--seed", pc->seed, "Seed")->capture_default_str();
+  pack->add_option("--device", pc->device,
+                   "cpu (MuJoCo, all cores) or cuda (MuJoCo Warp: a scene per task, each on its "
+                   "own stream)")
+      ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   pack->add_option("--out,-o", *pack_out, "Write the JSON here (atomically) instead of stdout");
   pack->footer("Example:\n  bidex bench pack --suite MT4 --slots 64 --seconds 0.5 --rounds 1");
   pack->callback([pc, pack_out] { emit(bench::run_pack_bench(*pc), *pack_out, command_line()); });

@@ -175,7 +175,8 @@ void add_train_command(CLI::App& app) {
     std::vector<std::string> overrides;
     int64_t stop_after = 0;
     double time_limit = 0;
-    bool no_registry = false;
+    bool no_registry = false, profile = false;
+    std::string device = "auto";
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -206,6 +207,15 @@ void add_train_command(CLI::App& app) {
                   "Stop as Ctrl-C would once this session has trained this many seconds "
                   "(a checkpoint is written; --resume continues)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--device", o->device,
+                  "Where the simulation steps: cpu (MuJoCo on all cores), cuda (MuJoCo Warp on "
+                  "the GPU; the learner reads its rows in place), or auto: cuda when there is a "
+                  "GPU, the GPU backend and a CUDA LibTorch; warp-cpu runs the GPU path's code on "
+                  "Warp's CPU device (tests). Recorded in run.json; a resumed run may change it")
+      ->check(CLI::IsMember({"auto", "cpu", "cuda", "warp-cpu"}))->capture_default_str();
+  cmd->add_flag("--profile", o->profile,
+                "Also time physics, task kernels, policy and update, into <run>/profile.json "
+                "(the simulation waits after each stage)");
   cmd->footer(
       "Examples:\n"
       "  bidex train --task catch_underarm_raise          # a small run, about 35 s on 2 cores\n"
@@ -214,6 +224,7 @@ void add_train_command(CLI::App& app) {
       "  bidex train --task hand_over --algo sac -o env.slots=64 -o sac.batch_size=256\n"
       "  bidex train --suite MT4 --algo mtppo -o env.slots=256\n"
       "  bidex train --suite MT4 --algo mttrpo -o env.slots=256\n"
+      "  bidex train --task hand_over --device cuda -o env.slots=16384   # on the GPU\n"
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
   cmd->callback([o] {
@@ -221,6 +232,8 @@ void add_train_command(CLI::App& app) {
     to.command = command_line();
     to.stop_after_updates = o->stop_after;
     to.time_limit_s = o->time_limit;
+    to.device = o->device;
+    to.profile = o->profile;
     if (o->no_registry && !o->registry.empty())
       throw Error("train: --registry and --no-registry contradict each other");
     auto rec = std::make_shared<RunRecorder>(
@@ -274,6 +287,8 @@ void add_train_command(CLI::App& app) {
                 static_cast<long long>(r.steps), num(r.last_return).c_str(),
                 num(r.last_success, "%.3f").c_str());
     print_scores(r, *rec);
+    std::printf("simulation on %s\n", r.sim_device.c_str());
+    if (!r.room_advice.empty()) std::printf("%s\n", r.room_advice.c_str());
     if (rec->id() > 0)
       std::printf("registry %s: run %lld\n", rec->path().c_str(), static_cast<long long>(rec->id()));
     print_curve(r.run_dir);

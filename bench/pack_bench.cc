@@ -4,12 +4,15 @@
 #include <chrono>
 #include <cstdio>
 #include <random>
+#include <type_traits>
 #include <vector>
 
 #include "bench/sim_bench.h"
+#include "core/error.h"
 #include "core/progress.h"
 #include "taskpack/pack.h"
 #include "taskpack/suite.h"
+#include "taskpack/warp_pack.h"
 #include "tasks/env.h"
 
 namespace bidex::bench {
@@ -25,25 +28,60 @@ struct Rate {
 };
 
 // Steps `pack` with random actions until min_seconds of timed stepping; actions are drawn
-// outside the timed part.
-Rate measure(taskpack::TaskPack& pack, const PackBenchConfig& cfg, std::mt19937_64& rng) {
+// outside the timed part (on the host for the CPU pack, on the device for the GPU pack).
+template <class P>
+Rate measure(P& pack, const PackBenchConfig& cfg, std::mt19937_64& rng) {
   std::vector<float> a(static_cast<size_t>(pack.nslot()) * pack.act_dim());
+  int64_t drawn = 0;
+  auto draw = [&] {
+    if constexpr (std::is_same_v<P, taskpack::WarpPack>) {
+      sim::WarpBackend& home = pack.group(0).backend();
+      home.random_fill("pack_actions", cfg.seed, drawn++, -1.f, 1.f);
+      home.synchronize();
+    } else {
+      tasks::random_actions(a, rng);
+    }
+  };
+  auto step = [&] {
+    if constexpr (std::is_same_v<P, taskpack::WarpPack>)
+      pack.step();
+    else
+      pack.step(a);
+  };
   for (int i = 0; i < cfg.warmup_steps; ++i) {
-    tasks::random_actions(a, rng);
-    pack.step(a);
+    draw();
+    step();
   }
   pack.take_stats();
   Rate r;
   while (r.seconds < cfg.min_seconds) {
-    tasks::random_actions(a, rng);
+    draw();
     auto t0 = std::chrono::steady_clock::now();
-    pack.step(a);
+    step();
     r.seconds += seconds_since(t0);
     ++r.steps;
   }
   for (auto& st : pack.take_stats()) r.episodes += st.episodes;
   r.slot_steps_per_s = static_cast<double>(r.steps) * pack.nslot() / r.seconds;
   return r;
+}
+
+// A measurement of a fresh pack of `spec` on the configured device.
+Rate measure_pack(const taskpack::PackSpec& spec, const PackBenchConfig& cfg,
+                  std::mt19937_64& rng, int* threads) {
+  if (cfg.device == "cuda") {
+    taskpack::WarpPackOptions wo;
+    wo.seed = cfg.seed;
+    taskpack::WarpPack pack(spec, wo);
+    *threads = pack.threads();
+    return measure(pack, cfg, rng);
+  }
+  taskpack::PackOptions po;
+  po.threads = cfg.threads;
+  po.seed = cfg.seed;
+  taskpack::TaskPack pack(spec, po);
+  *threads = pack.threads();
+  return measure(pack, cfg, rng);
 }
 
 }  // namespace
@@ -53,9 +91,8 @@ json run_pack_bench(const PackBenchConfig& cfg) {
   const taskpack::PackSpec packed = taskpack::suite_pack(suite, "train", cfg.slots);
   const int n = static_cast<int>(packed.entries.size());
   std::mt19937_64 rng(cfg.seed);
-  taskpack::PackOptions po;
-  po.threads = cfg.threads;
-  po.seed = cfg.seed;
+  if (cfg.device != "cpu" && cfg.device != "cuda")
+    throw ConfigError("", "--device", "cpu or cuda", cfg.device);
   Progress bar("bench pack " + suite.id, int64_t(cfg.rounds) * (n + 1), "measurements");
   int64_t done = 0;
 
@@ -64,9 +101,7 @@ json run_pack_bench(const PackBenchConfig& cfg) {
   int threads = 0;
   for (int round = 0; round < cfg.rounds; ++round) {
     {
-      taskpack::TaskPack pack(packed, po);
-      threads = pack.threads();
-      Rate r = measure(pack, cfg, rng);
+      Rate r = measure_pack(packed, cfg, rng, &threads);
       if (r.slot_steps_per_s > best_packed.slot_steps_per_s) best_packed = r;
       std::fprintf(stderr, "%s packed, %d slots: %.0f slot-steps/s\n", suite.id.c_str(),
                    cfg.slots, r.slot_steps_per_s);
@@ -79,8 +114,8 @@ json run_pack_bench(const PackBenchConfig& cfg) {
       one.entries = {packed.entries[g]};
       one.entries[0].slots = cfg.slots;
       one.entries[0].reward_scale = 1.0;
-      taskpack::TaskPack alone(one, po);
-      Rate r = measure(alone, cfg, rng);
+      int unused = 0;
+      Rate r = measure_pack(one, cfg, rng, &unused);
       if (r.slot_steps_per_s > best_single[g].slot_steps_per_s) best_single[g] = r;
       std::fprintf(stderr, "%s alone, %d slots: %.0f slot-steps/s\n",
                    packed.entries[g].task.c_str(), cfg.slots, r.slot_steps_per_s);
@@ -111,6 +146,7 @@ json run_pack_bench(const PackBenchConfig& cfg) {
           {"suite", suite.id},
           {"slots", cfg.slots},
           {"slots_per_task", slots_per_task},
+          {"device", cfg.device == "cuda" ? "cuda (MuJoCo Warp, one stream per scene)" : "cpu"},
           {"threads", threads},
           {"rounds", cfg.rounds},
           {"min_seconds", cfg.min_seconds},

@@ -1,37 +1,42 @@
-// The collector: steps a task pack with the actions an algorithm chose and hands back what the
-// step gave on the training device, in one transfer each way per step (with CUDA, from pinned
-// host memory): the actions to the host, then one buffer of observations, rewards, done flags
-// and the final observations of slots whose episode the time limit cut (for bootstrapping).
+// The collector: steps a pack with the actions an algorithm chose and hands back what the step
+// gave on the training device (rl/algorithm.h Transition).
+//   - A CPU pack (taskpack::TaskPack): one transfer each way per step (with CUDA, from pinned
+//     host memory): the actions to the host, then one buffer of observations, rewards, done
+//     flags and the final observations of slots whose episode the time limit cut.
+//   - A GPU pack (taskpack::WarpPack): nothing crosses to the host. The pack's action rows, and
+//     its observation, reward and flag rows, are tensors over its device memory; the collector
+//     copies the actions in, waits for them, steps the pack and copies its rows out on the
+//     device.
 #pragma once
+
+#include <memory>
 
 #include <torch/torch.h>
 
 #include "rl/algorithm.h"
 
 namespace bidex::taskpack {
-class TaskPack;
+class Pack;
 }
 
 namespace bidex::rl {
 
 class Collector {
  public:
-  Collector(taskpack::TaskPack& env, const torch::Device& device);
+  virtual ~Collector() = default;
   // Resets every slot; the observations [N, D].
-  torch::Tensor reset();
+  virtual torch::Tensor reset() = 0;
   // One control step of every slot with `actions` [N, A] (any device).
-  Transition step(const torch::Tensor& actions);
+  virtual Transition step(const torch::Tensor& actions) = 0;
   // Seconds spent inside the pack's step since the last call (what simulation costs).
   double take_sim_seconds();
 
- private:
-  // copies the pack's outputs into the staging buffer and it to the device
-  torch::Tensor upload(bool with_final, int* k_out);
-  taskpack::TaskPack& env_;
-  torch::Device device_;
-  torch::Tensor staging_;
-  torch::Tensor no_ids_, no_final_obs_;  // what a step that cut no episode hands back
+ protected:
   double sim_s_ = 0;
 };
+
+// The collector of a CPU or GPU pack for a learner on `device`. A GPU pack needs its learner on
+// the same device (an Error otherwise).
+std::unique_ptr<Collector> make_collector(taskpack::Pack& pack, const torch::Device& device);
 
 }  // namespace bidex::rl

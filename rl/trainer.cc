@@ -28,6 +28,7 @@
 #include "sim/tensor.h"
 #include "taskpack/pack.h"
 #include "taskpack/suite.h"
+#include "taskpack/warp_pack.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
 
@@ -98,11 +99,11 @@ taskpack::PackSpec run_pack(const TrainConfig& c, int slots) {
 // Columns of metrics.csv: the run's own (steps, rates, episodes, returns; a task run has one
 // column per reward term, a suite run the return and success rate of each task and the mean of
 // the scaled returns, what the algorithm optimises), the algorithm's metrics, then faults.
-std::vector<std::string> metric_columns(const taskpack::TaskPack& pack, const Algorithm& algo) {
+std::vector<std::string> metric_columns(const taskpack::Pack& pack, const Algorithm& algo) {
   std::vector<std::string> cols = {"update", "steps", "wall_s", "fps", "sim_fps", "episodes",
                                    "return", "length", "success"};
   if (pack.ngroups() == 1) {
-    for (auto& t : pack.group(0).spec().reward_terms) cols.push_back("term_" + t.name);
+    for (auto& t : pack.task_spec(0).reward_terms) cols.push_back("term_" + t.name);
   } else {
     cols.push_back("scaled_return");
     for (int g = 0; g < pack.ngroups(); ++g) cols.push_back("return_" + pack.label(g));
@@ -121,12 +122,12 @@ std::string checkpoint_path(const std::string& dir, int64_t update) {
 
 // The versioned id of what a run trains on: the task's (catch_underarm-v1), or for a suite its
 // id and the versioned ids of its entries.
-std::string target_version(const taskpack::TaskPack& pack) {
+std::string target_version(const taskpack::Pack& pack) {
   if (pack.ngroups() == 1 && pack.spec().mode == taskpack::PackMode::kPlain)
-    return pack.group(0).spec().versioned_id();
+    return pack.task_spec(0).versioned_id();
   std::string v = pack.spec().name + "[";
   for (int g = 0; g < pack.ngroups(); ++g)
-    v.append(g ? "," : "").append(pack.group(g).spec().versioned_id());
+    v.append(g ? "," : "").append(pack.task_spec(g).versioned_id());
   return v + "]";
 }
 
@@ -138,7 +139,7 @@ class RecentScores {
     window_.push_back(es);
     if (static_cast<int>(window_.size()) > keep_) window_.erase(window_.begin());
   }
-  std::vector<EntryScore> scores(const taskpack::TaskPack& pack) const {
+  std::vector<EntryScore> scores(const taskpack::Pack& pack) const {
     std::vector<EntryScore> out;
     for (int g = 0; g < pack.ngroups(); ++g) {
       EntryScore e;
@@ -167,21 +168,63 @@ struct Session {
   std::string dir, yaml, name;
   TrainConfig cfg;
   torch::Device device{torch::kCPU};
-  std::unique_ptr<taskpack::TaskPack> env;
+  std::string sim_device, sim_why;  // where the pack steps, and why there
+  std::unique_ptr<taskpack::Pack> env;
   std::unique_ptr<Algorithm> algo;
   int64_t update = 0, steps = 0;
   double wall = 0;  // seconds of training, summed over resumed sessions
   std::string last_checkpoint;
 
-  void build(uint64_t env_seed) {
+  void build(uint64_t env_seed, const std::string& requested_sim_device) {
     device = pick_device(cfg, name);
     if (cfg.torch_threads > 0) torch::set_num_threads(cfg.torch_threads);
     torch::manual_seed(cfg.seed);
-    taskpack::PackOptions po;
-    po.threads = cfg.threads;
-    po.seed = env_seed;
-    env = std::make_unique<taskpack::TaskPack>(run_pack(cfg, cfg.slots), po);
+    const taskpack::PackSpec spec = run_pack(cfg, cfg.slots);
+    sim_device = choose_sim_device(requested_sim_device, spec, &sim_why);
+    if (sim_device == "cpu") {
+      taskpack::PackOptions po;
+      po.threads = cfg.threads;
+      po.seed = env_seed;
+      env = std::make_unique<taskpack::TaskPack>(spec, po);
+    } else {
+      taskpack::WarpPackOptions wo;
+      wo.seed = env_seed;
+      wo.device = sim_device == "warp-cpu" ? "cpu" : "cuda";
+      env = std::make_unique<taskpack::WarpPack>(spec, wo);
+      if (sim_device == "warp-cpu") device = torch::Device(torch::kCPU);
+    }
     algo = make_algorithm(cfg.algo, cfg, env->obs_dim(), env->act_dim(), env->nslot(), device);
+  }
+
+  // The simulation's device: cpu, cuda or warp-cpu as asked (cuda needs the learner on the GPU
+  // too), or for auto cuda when the pack runs on the GPU backend and LibTorch has CUDA.
+  std::string choose_sim_device(const std::string& requested, const taskpack::PackSpec& spec,
+                                std::string* why) const {
+    if (requested == "warp-cpu") {
+      *why = "as asked (the GPU path's code on Warp's CPU device)";
+      return requested;
+    }
+    const std::string d = taskpack::choose_pack_device(requested, spec, why);
+    if (d != "cuda") return d;
+    const bool asked = requested == "cuda";
+    if (cfg.device == "cpu") {
+      if (asked)
+        throw ConfigError(name, "train.device",
+                          "cuda or auto: with --device cuda the simulation's rows are read in "
+                          "place on the GPU, so the learner must be there too",
+                          "cpu");
+      *why = "train.device is cpu";
+      return "cpu";
+    }
+    if (!device.is_cuda()) {
+      if (asked)
+        throw DeviceError("--device cuda: this LibTorch has no CUDA, and the learner must be on "
+                          "the GPU with the simulation; build against a CUDA LibTorch "
+                          "(scripts/offline-build.sh, README \"With a GPU\") or use --device cpu");
+      *why = "this LibTorch has no CUDA";
+      return "cpu";
+    }
+    return d;
   }
 
   // slot-steps per update
@@ -267,6 +310,45 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// Where a session's time went, per update (--profile).
+struct StepTimes {
+  int64_t updates = 0, slot_steps = 0;
+  double rollout = 0, sim = 0, update = 0;
+  void add(double rollout_s, double sim_s, double update_s, int64_t batch) {
+    updates += 1;
+    slot_steps += batch;
+    rollout += rollout_s;
+    sim += sim_s;
+    update += update_s;
+  }
+};
+
+// <run>/profile.json: the split of a session's training time. The simulation is the pack's
+// steps; on the GPU they divide into physics and task kernels (apply, evaluate, reset, observe,
+// rows); the policy is the rest of the rollout (acting, storing, copies); the update is the
+// learning step.
+void write_profile(const Session& s, const StepTimes& t) {
+  const tasks::StageProfile p = s.env->profile();
+  const double total = t.rollout + t.update;
+  nlohmann::json sec = {{"simulation", t.sim}, {"policy", t.rollout - t.sim}, {"update", t.update}};
+  if (s.sim_device != "cpu") {
+    sec["task_kernels"] = p.actions + p.task;
+    sec["physics"] = p.wall - p.actions - p.task;
+  }
+  nlohmann::json j = {{"task", s.cfg.target()},
+                      {"algo", s.cfg.algo},
+                      {"sim_device", s.sim_device},
+                      {"learner_device", s.device.str()},
+                      {"slots", s.env->nslot()},
+                      {"updates", t.updates},
+                      {"slot_steps", t.slot_steps},
+                      {"wall_s", total},
+                      {"slot_steps_per_s", total > 0 ? t.slot_steps / total : 0.0},
+                      {"seconds", sec},
+                      {"time", utc_now()}};
+  write_file_atomic(s.dir + "/profile.json", j.dump(2) + "\n");
+}
+
 TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   SignalScope signals;
   auto& env = *s.env;
@@ -274,7 +356,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   const int T = algo.steps_per_update();
   const int64_t batch = s.batch();
   const int64_t total_updates = (s.cfg.steps + batch - 1) / batch;
-  Collector collector(env, s.device);
+  std::unique_ptr<Collector> collector_ptr = make_collector(env, s.device);
+  Collector& collector = *collector_ptr;
 
   std::optional<Progress> bar;
   if (opt.progress) {
@@ -292,6 +375,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   torch::Tensor obs = collector.reset();
   bool stopped = false;
   const double session_start = monotonic_seconds();
+  StepTimes times;
+  if (opt.profile) env.set_profile(true);
   while (s.update < total_updates) {
     const double t_iter = monotonic_seconds();
     for (int t = 0; t < T && !g_stop; ++t) {
@@ -304,7 +389,12 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       stopped = true;
       break;
     }
+    const double t_update = monotonic_seconds();
     const std::vector<double> algo_metrics = algo.update(obs);
+    if (opt.profile) {
+      if (s.device.is_cuda()) torch::cuda::synchronize(s.device.index());
+      times.add(t_update - t_iter, sim_s, monotonic_seconds() - t_update, batch);
+    }
     s.update += 1;
     s.steps += batch;
     const double iter = monotonic_seconds() - t_iter;
@@ -373,6 +463,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   res.last_return = shown_return;
   res.last_success = shown_success;
   res.checkpoint = s.last_checkpoint;
+  res.sim_device = s.sim_device;
+  if (auto* gpu = dynamic_cast<taskpack::WarpPack*>(s.env.get())) res.room_advice = gpu->room_advice();
   nlohmann::json scores = nlohmann::json::array();
   auto or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   for (auto& e : res.scores)
@@ -380,6 +472,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                       {"mean_return", or_null(e.mean_return)}, {"success", or_null(e.success)}});
   nlohmann::json summary = {{s.cfg.suite.empty() ? "task" : "suite", s.cfg.target()},
                             {"algo", s.cfg.algo},
+                            {"sim_device", s.sim_device},
+                            {"room_advice", res.room_advice},
                             {"updates", s.update},
                             {"steps", s.steps},
                             {"wall_s", s.wall},
@@ -390,6 +484,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                             {"scores_last_10_updates", scores},
                             {"time", utc_now()}};
   write_file_atomic(s.dir + "/summary.json", summary.dump(2) + "\n");
+  if (opt.profile) write_profile(s, times);
   return res;
 }
 
@@ -415,6 +510,8 @@ void write_run_json(const Session& s, const TrainOptions& opt, bool resumed) {
   j["sessions"].push_back({{"time", utc_now()},
                            {"command", opt.command},
                            {"device", s.device.str()},
+                           {"sim_device", s.sim_device},
+                           {"sim_device_reason", s.sim_why},
                            {"from_update", s.update},
                            {"threads", s.env->threads()}});
   write_file_atomic(path, j.dump(2) + "\n");
@@ -443,7 +540,7 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
   if (!dir_is_empty_or_missing(run_dir))
     throw Error("run folder " + run_dir + " exists and is not empty: continue it with --resume " +
                 run_dir + ", or choose another --run");
-  s.build(s.cfg.seed);
+  s.build(s.cfg.seed, options.device);
   write_file_atomic(run_dir + "/config.yaml", resolved_yaml);
   write_run_json(s, options, false);
   if (options.on_start) options.on_start(s.cfg, run_dir);
@@ -463,7 +560,7 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
                 "/checkpoints/update_*.ckpt)");
   const CheckpointMeta m = read_checkpoint_meta(cks.back());
   // the environment restarts its episodes: a new seed per resumed session, so that they differ
-  s.build(s.cfg.seed + 1000003ull * static_cast<uint64_t>(m.update));
+  s.build(s.cfg.seed + 1000003ull * static_cast<uint64_t>(m.update), options.device);
   load_into(s, cks.back());
   s.last_checkpoint = cks.back();
   write_run_json(s, options, true);

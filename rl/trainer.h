@@ -32,6 +32,14 @@ struct TrainOptions {
   int64_t stop_after_updates = 0; // > 0: stop as Ctrl-C would after this many updates in total
   double time_limit_s = 0;        // > 0: stop as Ctrl-C would once this session trained this long
   std::string command;            // recorded in run.json
+  // Where the simulation steps: cpu (MuJoCo on all cores), cuda (MuJoCo Warp on the GPU, the
+  // learner reading its rows in place), auto (cuda when the GPU backend, a GPU and a CUDA
+  // LibTorch are present and every task's stages run there), or warp-cpu (the GPU path's code
+  // on Warp's CPU device: tests). Recorded per session in run.json.
+  std::string device = "auto";
+  // Also time the parts of each step (the simulation waits after each stage) and write
+  // <run>/profile.json: physics, task kernels, policy and update seconds and slot-steps/s.
+  bool profile = false;
   // Called once the run folder holds config.yaml and run.json, before the first step (bidex
   // train records the run in the registry there).
   std::function<void(const TrainConfig&, const std::string& run_dir)> on_start;
@@ -44,6 +52,8 @@ struct TrainResult {
   double last_return = 0;         // mean return of the episodes of the last updates (NaN: none)
   double last_success = 0;
   std::string checkpoint;         // the newest checkpoint written
+  std::string sim_device;         // where the simulation stepped (cpu, cuda, warp-cpu)
+  std::string room_advice;        // GPU: which physics settings to raise, if worlds overflowed
   // Per task (a suite run: per entry), the episodes that ended in the last 10 updates.
   std::vector<EntryScore> scores;
 };

@@ -55,7 +55,7 @@ void WarpBackend::random_fill(const std::string&, uint64_t, int64_t, float, floa
 void WarpBackend::synchronize() {}
 void WarpBackend::download_bytes(const std::string&, void*, size_t) const {}
 void WarpBackend::upload_bytes(const std::string&, const void*, size_t) {}
-WorldArray WarpBackend::allocate(const std::string&, int, size_t) { return {}; }
+WorldArray WarpBackend::allocate(const std::string&, int, size_t, int) { return {}; }
 uintptr_t WarpBackend::stream() const { return 0; }
 size_t WarpBackend::device_bytes() const { return 0; }
 
@@ -249,13 +249,16 @@ void WarpBackend::upload_bytes(const std::string& name, const void* src, size_t 
   }
 }
 
-WorldArray WarpBackend::allocate(const std::string& name, int width, size_t elem_bytes) {
+WorldArray WarpBackend::allocate(const std::string& name, int width, size_t elem_bytes,
+                                 int rows) {
   if (impl_->arrays.count(name))
     throw Error("GPU backend: an array named '" + name + "' exists already");
+  if (rows <= 0) rows = nworld_;
   py::gil_scoped_acquire gil;
-  const auto ptr = impl_->bridge.attr("alloc")(name, static_cast<int64_t>(width * elem_bytes))
-                       .cast<uintptr_t>();
-  return impl_->arrays[name] = {ptr, nworld_, width};
+  const auto ptr =
+      impl_->bridge.attr("alloc")(name, static_cast<int64_t>(width * elem_bytes), rows)
+          .cast<uintptr_t>();
+  return impl_->arrays[name] = {ptr, rows, width};
 }
 
 uintptr_t WarpBackend::stream() const { return impl_->gpu ? impl_->stream.stream : 0; }

@@ -80,8 +80,9 @@ class WarpBackend {
   void synchronize();
 
   // A zeroed world-major array of `width` values of `elem_bytes` each, owned by the backend and
-  // named like its own arrays (task state and outputs live beside the physics).
-  WorldArray allocate(const std::string& name, int width, size_t elem_bytes);
+  // named like its own arrays (task state and outputs live beside the physics); `rows` rows
+  // (0: one per world; a pack's rows span the worlds of all its scenes).
+  WorldArray allocate(const std::string& name, int width, size_t elem_bytes, int rows = 0);
   // The CUDA stream the graphs run on (a CUstream; 0 on Warp's CPU device): kernels launched on
   // it are ordered with the passes.
   uintptr_t stream() const;

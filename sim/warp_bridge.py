@@ -154,6 +154,8 @@ class Bridge:
     if device.startswith("cuda") and not wp.is_cuda_available():
       raise RuntimeError("no CUDA device: Warp found no GPU or no working NVIDIA driver")
     self.device = wp.get_device(device)
+    # a stream of its own: the scenes of a pack step concurrently (taskpack/warp_pack.h)
+    self._stream = wp.Stream(self.device) if self.device.is_cuda else None
     self.mjm = mujoco.MjModel.from_binary_path(mjb_path)
     self.nworld = nworld
     self.substeps = substeps
@@ -187,6 +189,7 @@ class Bridge:
       self._reset_inputs()
       mjw.forward(self.m, self.d)
       self.reset_mask.zero_()
+      wp.synchronize_device(self.device)
     self.graphs = {}
     self.extra = {}
 
@@ -224,13 +227,14 @@ class Bridge:
   def random_inputs(self, seed, step, max_force, max_torque):
     wp.launch(_random_inputs, dim=self.nworld,
               inputs=[seed, step, self.ctrl_lo, self.ctrl_hi, max_force, max_torque, self.d.ctrl,
-                      self.base_wrench])
+                      self.base_wrench], device=self.device, stream=self._stream)
 
   def random_fill(self, name, width, seed, step, lo, hi):
     a = self.extra[name]
-    view = wp.array(ptr=a.ptr, dtype=float, shape=(self.nworld, width), device=self.device)
-    wp.launch(_random_fill, dim=self.nworld, inputs=[seed, step, lo, hi, view],
-              device=self.device)
+    rows = a.shape[0]  # a pack's rows span all its scenes' worlds
+    view = wp.array(ptr=a.ptr, dtype=float, shape=(rows, width), device=self.device)
+    wp.launch(_random_fill, dim=rows, inputs=[seed, step, lo, hi, view],
+              device=self.device, stream=self._stream)
 
   def _reset_inputs(self):
     wp.launch(_reset_inputs, dim=self.nworld,
@@ -242,14 +246,14 @@ class Bridge:
   def capture(self, name):
     """Captures one pass as a CUDA graph; returns its executable graph handle."""
     fn = getattr(self, name)
-    with wp.ScopedDevice(self.device):
+    with wp.ScopedDevice(self.device), wp.ScopedStream(self._stream):
       fn()  # loads the kernels' modules before the capture
       with wp.ScopedCapture() as cap:
         fn()
       graph = cap.graph
       if graph.graph_exec is None:  # Warp instantiates a graph at its first launch
         wp.capture_launch(graph)
-        wp.synchronize_device(self.device)
+      wp.synchronize_stream(self._stream)
     self.graphs[name] = graph
     g = graph.graph_exec
     return int(g.value if hasattr(g, "value") else g)
@@ -258,7 +262,7 @@ class Bridge:
     """Runs one pass: its graph on a GPU, the Python pass on Warp's CPU device."""
     g = self.graphs.get(name)
     if g is not None:
-      wp.capture_launch(g)
+      wp.capture_launch(g, stream=self._stream)
     else:
       with wp.ScopedDevice(self.device):
         getattr(self, name)()
@@ -268,11 +272,12 @@ class Bridge:
 
   # ---- what the C++ side reads ----
 
-  def alloc(self, name, width_bytes):
-    """A zeroed (nworld, width_bytes) byte array on the device for the C++ side (task state and
+  def alloc(self, name, width_bytes, rows):
+    """A zeroed (rows, width_bytes) byte array on the device for the C++ side (task state and
     outputs); returns its address."""
     with wp.ScopedDevice(self.device):
-      a = wp.zeros((self.nworld, max(width_bytes, 1)), dtype=wp.uint8)
+      a = wp.zeros((rows, max(width_bytes, 1)), dtype=wp.uint8)
+      wp.synchronize_device(self.device)  # zeroed before the C++ side's stream uses it
     self.extra[name] = a
     return int(a.ptr)
 
@@ -296,7 +301,7 @@ class Bridge:
     """(CUDA context, stream) handles, 0 on the CPU device."""
     if not self.device.is_cuda:
       return (0, 0)
-    return (int(self.device.context), int(self.device.stream.cuda_stream))
+    return (int(self.device.context), int(self._stream.cuda_stream))
 
   def memory(self):
     """Bytes Warp holds on the device (model, data and bidex's arrays)."""

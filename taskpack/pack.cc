@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "core/error.h"
+#include "taskpack/pack_row.h"
 #include "tasks/registry.h"
 
 namespace bidex::taskpack {
@@ -46,14 +47,14 @@ uint64_t group_seed(uint64_t seed, int g) {
   return seed + static_cast<uint64_t>(g) * 0x9E3779B97F4A7C15ull;
 }
 
-TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spec) {
+Pack::Pack(const PackSpec& spec) : spec_(spec) {
   const std::string& name = spec_.name;
   const int n = static_cast<int>(spec_.entries.size());
   if (n == 0) throw ConfigError(name, "entries", "at least one entry", "none");
 
   // the entries: known tasks, slot counts, scales, unique labels (checked before any scene is
   // built, so a bad entry costs nothing)
-  std::vector<const tasks::TaskSpec*> specs;
+  std::vector<const tasks::TaskSpec*>& specs = specs_;
   for (int g = 0; g < n; ++g) {
     PackEntry& e = spec_.entries[g];
     try {
@@ -121,7 +122,25 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spe
         if (sl.goal) std::fill_n(keep.begin() + sl.start, sl.size, uint8_t{0});
     keep_.push_back(std::move(keep));
   }
+  for (int g = 0; g < n; ++g) {
+    begin_.push_back(nslot_);
+    nslot_ += spec_.entries[g].slots;
+  }
+  slot_group_.resize(static_cast<size_t>(nslot_));
+  for (int g = 0; g < n; ++g)
+    std::fill_n(slot_group_.begin() + begin_[g], spec_.entries[g].slots, g);
+}
 
+Pack::~Pack() = default;
+
+int Pack::group_of(int slot) const { return slot_group_.at(static_cast<size_t>(slot)); }
+
+int Pack::one_hot_offset() const {
+  return spec_.mode == PackMode::kMultiTask ? obs_pad_ : -1;
+}
+
+TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : Pack(spec) {
+  const int n = ngroups();
   // one env per entry, consecutive slots
   for (int g = 0; g < n; ++g) {
     const PackEntry& e = spec_.entries[g];
@@ -132,12 +151,7 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : spec_(spe
     o.hand_file = options.hand_file;
     o.physics_file = options.physics_file;
     envs_.push_back(std::make_unique<tasks::TaskEnv>(tasks::make_task(e.task, e.config), o));
-    begin_.push_back(nslot_);
-    nslot_ += e.slots;
   }
-  slot_group_.resize(static_cast<size_t>(nslot_));
-  for (int g = 0; g < n; ++g)
-    std::fill_n(slot_group_.begin() + begin_[g], spec_.entries[g].slots, g);
 
   const size_t ns = static_cast<size_t>(nslot_);
   obs.assign(ns * obs_dim_, 0.f);
@@ -154,30 +168,12 @@ TaskPack::~TaskPack() = default;
 
 int TaskPack::threads() const { return envs_[0]->threads(); }
 
-int TaskPack::group_of(int slot) const { return slot_group_.at(static_cast<size_t>(slot)); }
-
-int TaskPack::one_hot_offset() const {
-  return spec_.mode == PackMode::kMultiTask ? obs_pad_ : -1;
-}
-
-namespace {
-
-// The pack's row from the task's: kept values through, zeros elsewhere, one-hot bit at `hot`
-// (-1: none). `keep` is 0 past the task's width, so `src` is never read beyond its row.
-void pack_row(const float* src, const uint8_t* keep, int pad, int width, int hot, float* dst) {
-  for (int i = 0; i < pad; ++i) dst[i] = keep[i] ? src[i] : 0.f;
-  std::fill(dst + pad, dst + width, 0.f);
-  if (hot >= 0) dst[hot] = 1.f;
-}
-
-}  // namespace
-
 void TaskPack::write_row(int g, int local, int slot) {
   const tasks::TaskEnv& env = *envs_[g];
   const size_t od = static_cast<size_t>(env.obs_dim());
   const size_t row = static_cast<size_t>(slot) * obs_dim_;
   const uint8_t* keep = keep_[g].data();
-  const int hot = spec_.mode == PackMode::kMultiTask ? obs_pad_ + g : -1;
+  const int hot = hot_column(g);
   pack_row(env.obs.data() + local * od, keep, obs_pad_, obs_dim_, hot, obs.data() + row);
   reward[slot] = static_cast<float>(static_cast<double>(env.reward[local]) *
                                     spec_.entries[g].reward_scale);

@@ -53,34 +53,71 @@ struct PackOptions {
 // pack's seed, so a one-entry pack is the task alone with the same seed.
 uint64_t group_seed(uint64_t seed, int g);
 
-// One pack of a pack spec with an invalid entry (unknown task, slots < 1, reward scale not
-// finite, a pad narrower than an entry) is a ConfigError naming the entry.
-class TaskPack {
+// What every pack of a spec shares, on either device: the entries checked, labelled and laid
+// out as consecutive slot groups, the padded widths and the observation masks. A pack spec with
+// an invalid entry (unknown task, slots < 1, reward scale not finite, a pad narrower than an
+// entry) is a ConfigError naming the entry, raised before any scene is built.
+class Pack {
  public:
-  TaskPack(const PackSpec& spec, const PackOptions& options);
-  ~TaskPack();
-  TaskPack(const TaskPack&) = delete;
-  TaskPack& operator=(const TaskPack&) = delete;
+  virtual ~Pack();
+  Pack(const Pack&) = delete;
+  Pack& operator=(const Pack&) = delete;
 
   const PackSpec& spec() const { return spec_; }
   int nslot() const { return nslot_; }
   int obs_dim() const { return obs_dim_; }   // obs_pad + one-hot width
   int act_dim() const { return act_dim_; }   // act_pad
-  int threads() const;
-  int ngroups() const { return static_cast<int>(envs_.size()); }
+  int obs_pad() const { return obs_pad_; }
+  int ngroups() const { return static_cast<int>(specs_.size()); }
   const PackEntry& entry(int g) const { return spec_.entries[g]; }
   const std::string& label(int g) const { return spec_.entries[g].label; }  // never empty
-  tasks::TaskEnv& group(int g) { return *envs_[g]; }
-  const tasks::TaskEnv& group(int g) const { return *envs_[g]; }
+  const tasks::TaskSpec& task_spec(int g) const { return *specs_[g]; }
   int group_begin(int g) const { return begin_[g]; }   // first pack slot of entry g
+  int group_slots(int g) const { return spec_.entries[g].slots; }
   int group_of(int slot) const;                        // entry of a pack slot
   int one_hot_offset() const;                          // -1 unless multi-task mode
   // Per entry, obs_pad values: 1 where the pack passes the task's observation through, 0 where
   // it writes zeros (padding, and goal slices in meta mode).
   const std::vector<uint8_t>& obs_keep(int g) const { return keep_[g]; }
+  // The one-hot column of entry g's rows (-1: none).
+  int hot_column(int g) const { return spec_.mode == PackMode::kMultiTask ? obs_pad_ + g : -1; }
+
+  // Where the pack steps: "cpu" (TaskPack), or the GPU backend's device (WarpPack).
+  virtual std::string device() const = 0;
+  // Simulation threads on the host (the GPU pack: 1, its host only queues work).
+  virtual int threads() const = 0;
+  // Starts a new episode in every slot.
+  virtual void reset() = 0;
+  // Episodes finished since the last call, per entry (unscaled returns).
+  virtual std::vector<tasks::EpisodeStats> take_stats() = 0;
+  // Timing of the steps since set_profile(true): see each pack for what the fields hold.
+  virtual void set_profile(bool on) = 0;
+  virtual tasks::StageProfile profile() const = 0;
+
+ protected:
+  explicit Pack(const PackSpec& spec);
+  PackSpec spec_;
+  std::vector<const tasks::TaskSpec*> specs_;
+  std::vector<int> begin_;
+  std::vector<std::vector<uint8_t>> keep_;
+  std::vector<int> slot_group_;  // entry of each pack slot
+  int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, obs_pad_ = 0, one_hot_ = 0;
+};
+
+// The pack on the CPU: one TaskEnv per entry, every slot of every entry stepped in one parallel
+// loop, outputs in host vectors.
+class TaskPack : public Pack {
+ public:
+  TaskPack(const PackSpec& spec, const PackOptions& options);
+  ~TaskPack() override;
+
+  std::string device() const override { return "cpu"; }
+  int threads() const override;
+  tasks::TaskEnv& group(int g) { return *envs_[g]; }
+  const tasks::TaskEnv& group(int g) const { return *envs_[g]; }
 
   // Starts a new episode in every slot and writes `obs`.
-  void reset();
+  void reset() override;
   // One control step of every slot; `actions` holds nslot x act_dim values (entries past the
   // task's own action width are ignored).
   void step(const float* actions);
@@ -90,20 +127,15 @@ class TaskPack {
   std::vector<float> obs, final_obs, reward;   // reward: the task's reward x reward_scale
   std::vector<uint8_t> terminated, truncated, success, fault;
 
-  // Episodes finished since the last call, per entry (unscaled returns).
-  std::vector<tasks::EpisodeStats> take_stats();
-  void set_profile(bool on);
-  tasks::StageProfile profile() const;  // summed over entries
+  std::vector<tasks::EpisodeStats> take_stats() override;
+  void set_profile(bool on) override;
+  // wall: the pack's steps; actions and task: thread-seconds summed over entries
+  tasks::StageProfile profile() const override;
 
  private:
   void write_row(int g, int local, int slot);  // pack rows of one slot from its entry's env
 
-  PackSpec spec_;
   std::vector<std::unique_ptr<tasks::TaskEnv>> envs_;
-  std::vector<int> begin_;
-  std::vector<std::vector<uint8_t>> keep_;
-  std::vector<int> slot_group_;  // entry of each pack slot
-  int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, obs_pad_ = 0, one_hot_ = 0;
   bool profile_on_ = false;
   tasks::StageProfile wall_;     // steps and wall time of the pack's steps
 };

@@ -2,6 +2,7 @@
 
 #include <cstring>
 
+#include "core/clock.h"
 #include "core/error.h"
 #include "sim/cuda_driver.h"
 #include "tasks/gpu_families.h"
@@ -197,13 +198,46 @@ void WarpTaskEnv::reset() {
 }
 
 void WarpTaskEnv::step() {
+  const double t0 = profile_on_ ? monotonic_seconds() : 0;
   runner_->apply(arrays_, nslot_);
+  double t1 = 0, t2 = 0;
+  if (profile_on_) {
+    backend_->synchronize();
+    t1 = monotonic_seconds();
+  }
   backend_->step();
+  if (profile_on_) {
+    backend_->synchronize();
+    t2 = monotonic_seconds();
+  }
   runner_->evaluate(arrays_, nslot_);
   backend_->reset_begin();
   runner_->reset(arrays_, nslot_);
   backend_->reset_end();
   runner_->observe(arrays_, nslot_);
+  if (profile_on_) {
+    backend_->synchronize();
+    const double t3 = monotonic_seconds();
+    profile_.steps += 1;
+    profile_.actions += t1 - t0;
+    profile_.task += t3 - t2;
+    profile_.wall += t3 - t0;
+  }
+}
+
+void WarpTaskEnv::set_actions(const float* actions, int stride) {
+  if (stride < arrays_.act_dim)
+    throw Error(spec().id + ": an action row of " + std::to_string(stride) +
+                " values is narrower than the task's " + std::to_string(arrays_.act_dim));
+  arrays_.actions = actions;
+  arrays_.act_stride = stride;
+}
+
+void WarpTaskEnv::synchronize() { backend_->synchronize(); }
+
+void WarpTaskEnv::set_profile(bool on) {
+  profile_on_ = on;
+  profile_ = StageProfile{};
 }
 
 void WarpTaskEnv::step(const std::vector<float>& actions) {
@@ -213,6 +247,7 @@ void WarpTaskEnv::step(const std::vector<float>& actions) {
                 std::to_string(arrays_.act_dim) + " actions, got " +
                 std::to_string(actions.size()));
   backend_->upload_bytes("actions", actions.data(), n * sizeof(float));
+  set_actions(reinterpret_cast<const float*>(backend_->array("actions").ptr), arrays_.act_dim);
   step();
 }
 

@@ -74,6 +74,15 @@ class WarpTaskEnv {
   void step();
   // Host actions (nslot x act_dim) copied to the device, then step() (tests, play).
   void step(const std::vector<float>& actions);
+  // Reads the actions from `actions` (device memory, `stride` values per world, the first
+  // act_dim used) instead of its own array: a pack's padded action rows.
+  void set_actions(const float* actions, int stride);
+  // Waits for the queued work.
+  void synchronize();
+  // With the profile on, step() waits after each stage to time it: actions (apply kernel),
+  // task (evaluate, reset, observe), wall (the whole step); physics is the rest.
+  void set_profile(bool on);
+  const StageProfile& profile() const { return profile_; }
 
   // The env's arrays on the device (world-major): actions, obs, final_obs, reward, terms (float32);
   // terminated, truncated, success, faulted (uint8, one per world).
@@ -98,6 +107,8 @@ class WarpTaskEnv {
     size_t elem = 0;
   };
   std::vector<std::pair<std::string, Buffer>> buffers_;
+  bool profile_on_ = false;
+  StageProfile profile_;
 };
 
 template <class T>

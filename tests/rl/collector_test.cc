@@ -21,7 +21,8 @@ TEST_CASE("the collector hands back each step and the time-limited slots' final 
   po.threads = 1;
   po.seed = 5;
   taskpack::TaskPack pack(spec, po);
-  rl::Collector collector(pack, torch::Device(torch::kCPU));
+  auto collector_ptr = rl::make_collector(pack, torch::Device(torch::kCPU));
+  rl::Collector& collector = *collector_ptr;
   const int N = pack.nslot(), D = pack.obs_dim();
 
   torch::Tensor obs = collector.reset();

@@ -1,0 +1,124 @@
+#!/usr/bin/env bash
+# PPO end to end on the GPU path (bidex train --device cuda), on a GPU machine without package
+# access. One stage per call, so that a device session can be spent in slices:
+#   bench/gpu_learn_run.sh build PARTS
+#       join the bundle's parts (scripts/offline-build.sh bundle-gpu + split) and build bidex
+#   bench/gpu_learn_run.sh pack OUTDIR [SUITE] [SLOTS]
+#       the suite's train split packed on the GPU against each task alone (bidex bench pack)
+#   bench/gpu_learn_run.sh profile OUTDIR TASKS SLOTS_LIST [UPDATES]
+#       short runs with --profile: slot-steps/s split into physics, task kernels, policy, update
+#   bench/gpu_learn_run.sh train OUTDIR TASK SLOTS SECONDS TARGET [-o key=value ...]
+#       trains (or resumes the run of an earlier call) for SECONDS more, then writes the curve and
+#       the wall time and slot-steps at which the mean training return first reached TARGET
+# Results go to OUTDIR with the machine, date, commit ($BIDEX_COMMIT) and commands. The run
+# folders stay on the machine under /tmp/bidex-gpu-runs. BIDEX_GPU_BUILD: the build folder.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+build=${BIDEX_GPU_BUILD:-build-gpu}
+bidex="$build/apps/bidex"
+runs=/tmp/bidex-gpu-runs
+stage=${1:?stage: build, pack, profile or train}
+shift
+SECONDS=0
+
+machine() {
+  nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv,noheader 2>/dev/null \
+    | head -1
+}
+
+# stamp FILE: adds machine, date, commit and command to a JSON file
+stamp() {
+  python3 - "$1" "$(machine)" "${BIDEX_COMMIT:-unknown}" "$2" <<'PY'
+import json, sys, datetime
+path, machine, commit, command = sys.argv[1:5]
+d = json.load(open(path))
+d.setdefault("machine", machine)
+d["commit"] = commit
+d["date"] = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+d.setdefault("command", command)
+json.dump(d, open(path, "w"), indent=2)
+PY
+}
+
+case "$stage" in
+build)
+  parts=${1:?PARTS}
+  deps=${BIDEX_GPU_DEPS:-/tmp/bidex-deps}
+  scripts/offline-build.sh join "$parts" "$deps" >/tmp/join.log 2>&1 || { cat /tmp/join.log; exit 1; }
+  BIDEX_BUILD_TARGETS=bidex scripts/offline-build.sh build "$deps" "$build" >/tmp/build.log 2>&1 \
+    || { tail -40 /tmp/build.log; exit 1; }
+  echo "build: ${SECONDS}s"
+  ;;
+pack)
+  out=$(realpath -m "${1:?OUTDIR}"); suite=${2:-MT20}; slots=${3:-16384}
+  mkdir -p "$out"
+  cmd="bidex bench pack --suite $suite --slots $slots --device cuda --seconds 1 --rounds 1"
+  "$bidex" bench pack --suite "$suite" --slots "$slots" --device cuda --seconds 1 --rounds 1 \
+    --out "$out/pack-$suite-$slots.json" 2>"$out/pack-$suite-$slots.log" || { tail "$out/pack-$suite-$slots.log"; exit 1; }
+  echo "bench pack: ${SECONDS}s"
+  ;;
+profile)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; slots_list=${3:?SLOTS_LIST}
+  updates=${4:-12}
+  mkdir -p "$out" "$runs"
+  for task in ${tasks//,/ }; do
+    for slots in ${slots_list//,/ }; do
+      run="$runs/profile-$task-$slots-$(date +%s)"
+      args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
+            --stop-after "$updates" --profile)
+      "$bidex" "${args[@]}" >"$out/profile-$task-$slots.txt" 2>/dev/null
+      cp "$run/profile.json" "$out/profile-$task-$slots.json"
+      stamp "$out/profile-$task-$slots.json" "bidex ${args[*]}"
+      echo "$task $slots: $(python3 -c "import json;print(round(json.load(open('$out/profile-$task-$slots.json'))['slot_steps_per_s']))") slot-steps/s"
+    done
+  done
+  echo "profile: ${SECONDS}s"
+  ;;
+train)
+  out=$(realpath -m "${1:?OUTDIR}"); task=${2:?TASK}; slots=${3:?SLOTS}; budget=${4:?SECONDS}
+  target=${5:?TARGET}
+  shift 5
+  mkdir -p "$out/$task" "$runs"
+  run="$runs/$task-$slots"
+  if [[ -f "$run/config.yaml" ]]; then
+    args=(train --resume "$run" --device cuda --no-registry --time-limit "$budget")
+  else
+    args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
+          --time-limit "$budget" "$@")
+  fi
+  "$bidex" "${args[@]}" 2>"$out/$task/progress.log" | tee -a "$out/$task/train.txt"
+  echo "bidex ${args[*]}" >>"$out/$task/commands.txt"
+  cp "$run"/{config.yaml,run.json,metrics.csv,learning_curve.svg,summary.json} "$out/$task/"
+  python3 - "$out/$task" "$target" "$(machine)" "${BIDEX_COMMIT:-unknown}" <<'PY'
+import csv, json, sys, datetime
+d, target, machine, commit = sys.argv[1], float(sys.argv[2]), sys.argv[3], sys.argv[4]
+rows = [r for r in csv.DictReader(open(f"{d}/metrics.csv")) if r["return"] != ""]
+hit = next((r for r in rows if float(r["return"]) >= target), None)
+last = rows[-10:]
+fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
+out = {
+  "what": "PPO with the simulation and the learner on the GPU: mean training return per update, "
+          "and the first update whose mean return reached the target",
+  "machine": machine, "commit": commit,
+  "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+  "commands": open(f"{d}/commands.txt").read().splitlines(),
+  "target_return": target,
+  "reached": hit is not None,
+  "reached_at": None if hit is None else {"wall_s": float(hit["wall_s"]),
+                                          "slot_steps": int(float(hit["steps"])),
+                                          "return": float(hit["return"])},
+  "slot_steps": int(float(rows[-1]["steps"])) if rows else 0,
+  "wall_s": float(rows[-1]["wall_s"]) if rows else 0,
+  "train_fps_median": fps[len(fps) // 2] if fps else None,
+  "return_last_10_updates": sum(float(r["return"]) for r in last) / len(last) if last else None,
+}
+json.dump(out, open(f"{d}/time_to_target.json", "w"), indent=2)
+print(json.dumps(out, indent=1))
+PY
+  echo "train: ${SECONDS}s"
+  ;;
+*)
+  echo "unknown stage $stage (build, pack, profile or train)" >&2
+  exit 2
+  ;;
+esac
