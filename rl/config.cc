@@ -200,7 +200,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
   {
     auto t = v.child("train");
     t.allow_keys({"steps", "save_interval", "keep_checkpoints", "plot_interval", "device",
-                  "torch_threads"});
+                  "torch_threads", "tf32"});
     auto s = t.child("steps");
     const double x = s.as<double>();
     if (!(x >= 1) || x != std::floor(x) || x > 9.0e15) s.fail("an integer >= 1", s.repr());
@@ -210,6 +210,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     c.plot_interval = positive(t, "plot_interval", 1);
     c.device = choice(t, "device", {"auto", "cpu", "cuda"});
     c.torch_threads = positive(t, "torch_threads", 0);
+    if (auto tf = t.maybe("tf32")) c.tf32 = tf->as<bool>();
   }
   if (info.section == "sac") {
     auto p = v.child("sac");

@@ -76,6 +76,7 @@ struct TrainConfig {
   int plot_interval = 10;
   std::string device = "auto";
   int torch_threads = 0;
+  bool tf32 = true;  // CUDA matrix products in TF32 (absent from older run configs: true)
   PpoConfig ppo;    // the on-policy settings (ppo, mtppo, trpo)
   TrpoConfig trpo;  // trpo only
   SacConfig sac;    // sac only
