@@ -7,6 +7,7 @@
 #       the suite's train split packed on the GPU against each task alone (bidex bench pack)
 #   bench/gpu_learn_run.sh profile OUTDIR TASKS SLOTS_LIST [UPDATES]
 #       short runs with --profile: slot-steps/s split into physics, task kernels, policy, update
+#       (a TASKS entry naming a suite, MT1, MT4 or MT20, trains multi-task PPO on it)
 #   bench/gpu_learn_run.sh train OUTDIR TASK SLOTS SECONDS TARGET [-o key=value ...]
 #       trains (or resumes the run of an earlier call) for SECONDS more, then writes the curve and
 #       the wall time and slot-steps at which the mean training return first reached TARGET
@@ -64,7 +65,8 @@ profile)
   for task in ${tasks//,/ }; do
     for slots in ${slots_list//,/ }; do
       run="$runs/profile-$task-$slots-$(date +%s)"
-      args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
+      if [[ $task == MT* ]]; then target=(--suite "$task" --algo mtppo); else target=(--task "$task"); fi
+      args=(train "${target[@]}" --device cuda -o env.slots="$slots" --run "$run" --no-registry
             --stop-after "$updates" --profile)
       "$bidex" "${args[@]}" >"$out/profile-$task-$slots.txt" 2>/dev/null
       cp "$run/profile.json" "$out/profile-$task-$slots.json"

@@ -116,23 +116,28 @@ std::string save_model(const mjModel* m) {
 
 }  // namespace
 
+// The bridge's passes, captured as graphs on a GPU (warp_bridge.py names them).
+enum Pass { kStep, kResetBegin, kResetEnd, kRawStep, kPasses };
+constexpr const char* kPassNames[kPasses] = {"step", "reset_begin", "reset_end", "raw_step"};
+
 struct WarpBackend::Impl {
   py::object bridge;
   std::map<std::string, WorldArray> arrays;
   cuda::Stream stream;
   bool gpu = false;
-  std::map<std::string, uintptr_t> graphs;  // pass name -> executable graph (GPU only)
+  uintptr_t graphs[kPasses] = {};  // executable graph of each pass (GPU only)
 
-  void run(const std::string& pass) {
+  void run(Pass pass) {
     if (gpu) {
-      cuda::launch_graph(stream, graphs.at(pass));
+      cuda::launch_graph(stream, graphs[pass]);
       return;
     }
     py::gil_scoped_acquire gil;
     try {
-      bridge.attr("run")(pass);
+      bridge.attr("run")(kPassNames[pass]);
     } catch (const py::error_already_set& e) {
-      throw DeviceError("GPU backend: the " + pass + " pass failed: " + describe(e));
+      throw DeviceError(std::string("GPU backend: the ") + kPassNames[pass] +
+                        " pass failed: " + describe(e));
     }
   }
 
@@ -178,11 +183,12 @@ WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
   impl_->stream = {s.first, s.second};
   impl_->gpu = s.second != 0 || s.first != 0;
   if (impl_->gpu) {
-    for (const char* pass : {"step", "reset_begin", "reset_end", "raw_step"}) {
+    for (int pass = 0; pass < kPasses; ++pass) {
       try {
-        impl_->graphs[pass] = impl_->bridge.attr("capture")(pass).cast<uintptr_t>();
+        impl_->graphs[pass] =
+            impl_->bridge.attr("capture")(kPassNames[pass]).cast<uintptr_t>();
       } catch (const py::error_already_set& e) {
-        throw DeviceError(std::string("GPU backend: capturing the ") + pass +
+        throw DeviceError(std::string("GPU backend: capturing the ") + kPassNames[pass] +
                           " pass as a CUDA graph failed: " + describe(e));
       }
     }
@@ -199,10 +205,10 @@ WorldArray WarpBackend::array(const std::string& name) const {
   return it->second;
 }
 
-void WarpBackend::step() { impl_->run("step"); }
-void WarpBackend::reset_begin() { impl_->run("reset_begin"); }
-void WarpBackend::reset_end() { impl_->run("reset_end"); }
-void WarpBackend::raw_step() { impl_->run("raw_step"); }
+void WarpBackend::step() { impl_->run(kStep); }
+void WarpBackend::reset_begin() { impl_->run(kResetBegin); }
+void WarpBackend::reset_end() { impl_->run(kResetEnd); }
+void WarpBackend::raw_step() { impl_->run(kRawStep); }
 
 void WarpBackend::random_inputs(uint64_t seed, int64_t step, double max_force,
                                 double max_torque) {
@@ -302,39 +308,6 @@ std::string WarpBackend::room_advice() const {
          std::to_string(options_.njmax) + " constraint rows, " + std::to_string(options_.nconmax) +
          " contacts per world; each was reset): raise gpu_njmax or gpu_nconmax in the physics "
          "YAML (configs/sim/physics.yaml, or the task's scene)";
-}
-
-namespace {
-template <class T>
-T* at(const WorldArray& a, int world) {
-  return a.ptr ? reinterpret_cast<T*>(a.ptr) + static_cast<size_t>(world) * a.width : nullptr;
-}
-}  // namespace
-
-WorldRows<float> WarpBackend::rows(int w) const {
-  WorldRows<float> r;
-  r.qpos = at<float>(array("qpos"), w);
-  r.qvel = at<float>(array("qvel"), w);
-  r.qfrc_actuator = at<float>(array("qfrc_actuator"), w);
-  r.qfrc_constraint = at<float>(array("qfrc_constraint"), w);
-  r.sensordata = at<float>(array("sensordata"), w);
-  r.xpos = at<float>(array("xpos"), w);
-  r.xquat = at<float>(array("xquat"), w);
-  r.cvel = at<float>(array("cvel"), w);
-  r.subtree_com = at<float>(array("subtree_com"), w);
-  r.ctrl = at<float>(array("ctrl"), w);
-  r.base_wrench = at<float>(array("base_wrench"), w);
-  return r;
-}
-
-ResetRows<float> WarpBackend::reset_rows(int w) const {
-  ResetRows<float> r;
-  r.qpos = at<float>(array("qpos"), w);
-  r.qvel = at<float>(array("qvel"), w);
-  r.ctrl = at<float>(array("ctrl"), w);
-  r.mocap_pos = at<float>(array("mocap_pos"), w);
-  r.mocap_quat = at<float>(array("mocap_quat"), w);
-  return r;
 }
 
 }  // namespace bidex::sim

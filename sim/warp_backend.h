@@ -58,9 +58,6 @@ class WarpBackend {
   // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_count and
   // overflow_count (int64 per world), reset (int32: 1 marks a world for the next reset).
   WorldArray array(const std::string& name) const;
-  // One world's rows as task stage bodies see them (addresses on the backend's device).
-  WorldRows<float> rows(int world) const;
-  ResetRows<float> reset_rows(int world) const;
 
   // One control step of every world, then the fault check, which marks faulty worlds in `reset`.
   // Asynchronous on a GPU: it returns once the work is queued on the backend's stream.

@@ -214,3 +214,20 @@ TEST_CASE("without a GPU, a GPU pack or run is a clear error naming what is miss
       test::tiny_yaml("catch_underarm_raise", {"train.steps=32", "train.device=auto"});
   CHECK_THROWS_AS(rl::train_new(yaml, tmp.file("run"), t), Error);
 }
+
+TEST_CASE("multi-task PPO trains on a suite packed on the GPU path's code", "[warp][rl][train]") {
+  // MT4 on Warp's CPU device: four scenes, one slot each, per-task metric columns
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  const std::string yaml = test::tiny_onpolicy_yaml("mtppo", "MT4", {"train.steps=32"});
+  rl::TrainOptions o = test::quiet();
+  o.device = "warp-cpu";
+  const rl::TrainResult r = rl::train_new(yaml, dir, o);
+  CHECK(r.updates == 1);
+  CHECK(r.sim_device == "warp-cpu");
+  REQUIRE(r.scores.size() == 4);
+  CHECK(r.scores[1].label == "hand_over");
+  const std::string csv = read_file(dir + "/metrics.csv");
+  for (const char* col : {"scaled_return", "return_catch_underarm", "success_two_catch_underarm"})
+    CHECK(csv.find(col) != std::string::npos);
+}
