@@ -5,6 +5,7 @@
 #include "rl/algorithm.h"
 #include "rl/ppo.h"
 #include "rl/sac.h"
+#include "rl/td3.h"
 #include "rl/trpo.h"
 
 namespace bidex::rl {
@@ -27,6 +28,8 @@ const std::vector<Entry>& entries() {
       // multi-task TRPO: TRPO on a multi-task suite's pack
       {{"mttrpo", "multi-task TRPO", TrainsOn::kSuite, "trpo"}, make_trpo},
       {{"sac", "SAC", TrainsOn::kTask, "sac"}, make_sac},
+      {{"td3", "TD3", TrainsOn::kTask, "td3"}, make_td3},
+      {{"ddpg", "DDPG", TrainsOn::kTask, "ddpg"}, make_td3},
   };
   return all;
 }

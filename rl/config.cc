@@ -237,6 +237,44 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
                                   std::to_string(o.replay_size));
     return c;
   }
+  if (info.section == "td3" || info.section == "ddpg") {
+    const bool td3 = info.section == "td3";
+    auto p = v.child(info.section);
+    std::vector<std::string> keys = {"hidden", "activation", "horizon", "epochs", "minibatches",
+                                     "batch_size", "replay_size", "lr", "gamma", "polyak",
+                                     "max_grad_norm", "reward_scale", "act_noise"};
+    if (td3) keys.insert(keys.end(), {"target_noise", "noise_clip", "policy_delay"});
+    p.allow_keys(keys);
+    auto& o = c.td3;
+    o.hidden = widths(p.child("hidden"));
+    o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
+    o.horizon = positive(p, "horizon", 1);
+    o.epochs = positive(p, "epochs", 1);
+    o.minibatches = positive(p, "minibatches", 1);
+    o.batch_size = positive(p, "batch_size", 1);
+    o.replay_size = positive(p, "replay_size", 1);
+    o.lr = real(p, "lr", 0, 1, true);
+    o.gamma = real(p, "gamma", 0, 1, false);
+    o.polyak = real(p, "polyak", 0, 1, false);
+    o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
+    o.reward_scale = real(p, "reward_scale", 0, 1e6, true);
+    o.act_noise = real(p, "act_noise", 0, 10, false);
+    o.twin = td3;
+    if (td3) {
+      o.target_noise = real(p, "target_noise", 0, 10, false);
+      o.noise_clip = real(p, "noise_clip", 0, 10, false);
+      o.policy_delay = positive(p, "policy_delay", 1);
+    } else {
+      o.target_noise = 0;
+      o.noise_clip = 0;
+      o.policy_delay = 1;
+    }
+    if (o.replay_size < c.slots)
+      p.child("replay_size").fail("at least env.slots (" + std::to_string(c.slots) +
+                                  ") transitions, one step of every slot",
+                                  std::to_string(o.replay_size));
+    return c;
+  }
   {
     // the on-policy keys every section has, then PPO's surrogate or TRPO's step
     const bool trpo = info.section == "trpo";

@@ -62,6 +62,29 @@ struct SacConfig {
   double reward_scale = 1.0;
 };
 
+// TD3 and DDPG (the `td3:` and `ddpg:` sections): the paper's tables for them. DDPG uses one
+// critic, no target smoothing and no policy delay (its section has no such keys).
+struct Td3Config {
+  std::vector<int> hidden{1024, 1024, 512};  // actor and each critic
+  std::string activation = "elu";
+  int horizon = 8;            // control steps of every slot between updates
+  int epochs = 5;             // gradient steps per update: epochs x minibatches
+  int minibatches = 4;
+  int batch_size = 100;       // transitions per gradient step (DDPG's table: 64)
+  int64_t replay_size = 10000;
+  double lr = 1e-4;           // Adam, actor and critics
+  double gamma = 0.96;
+  double polyak = 0.995;      // targets: polyak x target + (1 - polyak) x learned
+  double max_grad_norm = 1.0;
+  double reward_scale = 1.0;
+  double act_noise = 0.1;     // exploration: Gaussian noise of this std on the actor's action
+  // TD3 only
+  bool twin = true;           // two critics, the minimum in the target
+  double target_noise = 0.2;  // target policy smoothing: noise std ...
+  double noise_clip = 0.5;    // ... clipped to +- this
+  int policy_delay = 2;       // actor and target updates every this many critic steps
+};
+
 struct TrainConfig {
   std::string algo = "ppo";
   std::string task;               // a task run: the task id (suite empty)
@@ -80,6 +103,7 @@ struct TrainConfig {
   PpoConfig ppo;    // the on-policy settings (ppo, mtppo, trpo)
   TrpoConfig trpo;  // trpo only
   SacConfig sac;    // sac only
+  Td3Config td3;    // td3 and ddpg
 
   // slot-steps per update
   int64_t batch() const { return int64_t(slots) * ppo.horizon; }

@@ -110,4 +110,11 @@ torch::Tensor ActorCriticImpl::value(const torch::Tensor& nobs) {
   return use_value_norm_ ? value_norm_->denormalize(v) : v;
 }
 
+void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep) {
+  torch::NoGradGuard ng;
+  auto s = src.parameters();
+  auto d = dst.parameters();
+  for (size_t i = 0; i < s.size(); ++i) d[i].mul_(keep).add_(s[i], 1.0 - keep);
+}
+
 }  // namespace bidex::rl

@@ -41,6 +41,9 @@ torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
                           const std::string& activation, double out_gain);
 
+// Target networks: dst = keep x dst + (1 - keep) x src, parameter by parameter (keep = 0 copies).
+void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep);
+
 class ActorCriticImpl : public torch::nn::Module {
  public:
   ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& config);

@@ -77,7 +77,7 @@ class SacAlgorithm final : public Algorithm {
     actor_->to(device);
     critic_->to(device);
     target_->to(device);
-    copy_params(*critic_, *target_, 0.0);
+    polyak_update(*critic_, *target_, 0.0);
     for (auto& p : target_->parameters()) p.set_requires_grad(false);
     log_alpha_ = torch::full({1}, std::log(c_.init_alpha),
                              torch::TensorOptions().dtype(torch::kFloat32).device(device))
@@ -145,7 +145,7 @@ class SacAlgorithm final : public Algorithm {
         alpha_loss.backward();
         alpha_opt_->step();
       }
-      copy_params(*critic_, *target_, c_.polyak);
+      polyak_update(*critic_, *target_, c_.polyak);
       torch::NoGradGuard ng;
       sums += torch::stack({q_loss.detach(), actor_loss.detach(), alpha_loss.detach(),
                             -logp.detach().mean(), q1.detach().mean(),
@@ -214,14 +214,6 @@ class SacAlgorithm final : public Algorithm {
   }
 
  private:
-  // dst = keep x dst + (1 - keep) x src, parameter by parameter
-  static void copy_params(torch::nn::Module& src, torch::nn::Module& dst, double keep) {
-    torch::NoGradGuard ng;
-    auto s = src.parameters();
-    auto d = dst.parameters();
-    for (size_t i = 0; i < s.size(); ++i) d[i].mul_(keep).add_(s[i], 1.0 - keep);
-  }
-
   SacConfig c_;
   SacActor actor_;
   SacCritic critic_, target_;

@@ -1,0 +1,209 @@
+#include "rl/td3.h"
+
+#include "rl/checkpoint.h"
+#include "rl/policy.h"
+#include "rl/replay.h"
+
+namespace bidex::rl {
+
+torch::Tensor td3_target_action(const torch::Tensor& mu_next, const torch::Tensor& noise,
+                                double std, double clip) {
+  return (mu_next + (noise * std).clamp(-clip, clip)).clamp(-1, 1);
+}
+
+torch::Tensor td3_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
+                           const torch::Tensor& q1_next, const torch::Tensor& q2_next,
+                           double gamma) {
+  return reward + gamma * (1 - terminal) * torch::min(q1_next, q2_next);
+}
+
+namespace {
+
+struct Td3ActorImpl : torch::nn::Module {
+  Td3ActorImpl(int64_t D, int64_t A, const Td3Config& c) {
+    net = register_module("net", mlp(D, c.hidden, A, c.activation, 0.01));
+  }
+  torch::Tensor forward(const torch::Tensor& obs) { return torch::tanh(net->forward(obs)); }
+  torch::nn::Sequential net{nullptr};
+};
+TORCH_MODULE(Td3Actor);
+
+// One or two critics on (observation, action).
+struct Td3CriticImpl : torch::nn::Module {
+  Td3CriticImpl(int64_t D, int64_t A, const Td3Config& c) {
+    q1 = register_module("q1", mlp(D + A, c.hidden, 1, c.activation, 1.0));
+    if (c.twin) q2 = register_module("q2", mlp(D + A, c.hidden, 1, c.activation, 1.0));
+  }
+  // (q1, q2); q2 is q1 with one critic
+  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
+                                                  const torch::Tensor& a) {
+    auto x = torch::cat({obs, a}, 1);
+    auto v1 = q1->forward(x).squeeze(1);
+    return {v1, q2 ? q2->forward(x).squeeze(1) : v1};
+  }
+  torch::nn::Sequential q1{nullptr}, q2{nullptr};
+};
+TORCH_MODULE(Td3Critic);
+
+class Td3Algorithm final : public Algorithm {
+ public:
+  Td3Algorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
+               const torch::Device& device)
+      : c_(config.td3),
+        actor_(D, A, config.td3),
+        actor_target_(D, A, config.td3),
+        critic_(D, A, config.td3),
+        critic_target_(D, A, config.td3) {
+    for (torch::nn::Module* m : std::initializer_list<torch::nn::Module*>{
+             actor_.get(), actor_target_.get(), critic_.get(), critic_target_.get()})
+      m->to(device);
+    polyak_update(*actor_, *actor_target_, 0.0);
+    polyak_update(*critic_, *critic_target_, 0.0);
+    for (auto& p : actor_target_->parameters()) p.set_requires_grad(false);
+    for (auto& p : critic_target_->parameters()) p.set_requires_grad(false);
+    actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
+                                                      torch::optim::AdamOptions(c_.lr));
+    critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),
+                                                       torch::optim::AdamOptions(c_.lr));
+    steps_ = torch::zeros({1}, torch::kInt64);
+    if (N > 0) replay_ = std::make_unique<ReplayBuffer>(c_.replay_size, D, A, device);
+  }
+
+  int steps_per_update() const override { return c_.horizon; }
+
+  torch::Tensor act(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    last_obs_ = obs;
+    auto a = actor_->forward(obs);
+    if (c_.act_noise > 0) a = (a + c_.act_noise * torch::randn_like(a)).clamp(-1, 1);
+    last_act_ = a;
+    return a;
+  }
+
+  void observe(const Transition& t) override {
+    if (c_.reward_scale == 1.0) {
+      replay_->add(last_obs_, last_act_, t);
+    } else {
+      Transition scaled = t;
+      scaled.reward = t.reward * c_.reward_scale;
+      replay_->add(last_obs_, last_act_, scaled);
+    }
+  }
+
+  std::vector<double> update(const torch::Tensor&) override {
+    const auto dev = critic_->q1->parameters()[0].device();
+    auto sums = torch::zeros({3}, torch::TensorOptions().dtype(torch::kFloat64).device(dev));
+    int64_t step = steps_.item<int64_t>();
+    int actor_steps = 0;
+    const int n = c_.epochs * c_.minibatches;
+    for (int k = 0; k < n; ++k, ++step) {
+      const auto b = replay_->sample(c_.batch_size);
+      torch::Tensor target;
+      {
+        torch::NoGradGuard ng;
+        auto mu = actor_target_->forward(b.next_obs);
+        auto a_next = td3_target_action(mu, torch::randn_like(mu), c_.target_noise, c_.noise_clip);
+        auto [q1n, q2n] = critic_target_->forward(b.next_obs, a_next);
+        target = td3_q_target(b.rewards, b.terminal, q1n, q2n, c_.gamma);
+      }
+      auto [q1, q2] = critic_->forward(b.obs, b.actions);
+      auto q_loss = (q1 - target).pow(2).mean();
+      if (c_.twin) q_loss = 0.5 * (q_loss + (q2 - target).pow(2).mean());
+      critic_opt_->zero_grad();
+      q_loss.backward();
+      torch::nn::utils::clip_grad_norm_(critic_->parameters(), c_.max_grad_norm);
+      critic_opt_->step();
+      torch::Tensor actor_loss = torch::zeros({}, q_loss.options());
+      if (td3_actor_step(step, c_.policy_delay)) {
+        actor_loss = -critic_->forward(b.obs, actor_->forward(b.obs)).first.mean();
+        actor_opt_->zero_grad();
+        actor_loss.backward();
+        torch::nn::utils::clip_grad_norm_(actor_->parameters(), c_.max_grad_norm);
+        actor_opt_->step();
+        polyak_update(*actor_, *actor_target_, c_.polyak);
+        polyak_update(*critic_, *critic_target_, c_.polyak);
+        ++actor_steps;
+      }
+      torch::NoGradGuard ng;
+      sums += torch::stack({q_loss.detach(), actor_loss.detach(), q1.detach().mean()})
+                  .to(torch::kFloat64);
+    }
+    steps_.fill_(step);
+    auto m = (sums / n).to(torch::kCPU);
+    return {m[0].item<double>(), actor_steps ? m[1].item<double>() * n / actor_steps : 0.0,
+            m[2].item<double>(), static_cast<double>(actor_steps)};
+  }
+
+  const std::vector<std::string>& metric_names() const override {
+    static const std::vector<std::string> names = {"q_loss", "actor_loss", "q_mean",
+                                                   "actor_steps"};
+    return names;
+  }
+
+  void save(torch::serialize::OutputArchive& root) override {
+    torch::serialize::OutputArchive a, at, q, qt, ao, qo;
+    actor_->save(a);
+    actor_target_->save(at);
+    critic_->save(q);
+    critic_target_->save(qt);
+    actor_opt_->save(ao);
+    critic_opt_->save(qo);
+    root.write("actor", a);
+    root.write("actor_target", at);
+    root.write("critic", q);
+    root.write("critic_target", qt);
+    root.write("actor_optimizer", ao);
+    root.write("critic_optimizer", qo);
+    root.write("gradient_steps", steps_);
+  }
+
+  void load(torch::serialize::InputArchive& root, const std::string& path) override {
+    read_checked(path, "does not fit this run's networks", [&] {
+      torch::serialize::InputArchive a, at, q, qt, ao, qo;
+      root.read("actor", a);
+      root.read("actor_target", at);
+      root.read("critic", q);
+      root.read("critic_target", qt);
+      load_module_checked(*actor_, a, path, "this run's actor");
+      load_module_checked(*actor_target_, at, path, "this run's target actor");
+      load_module_checked(*critic_, q, path, "this run's critics");
+      load_module_checked(*critic_target_, qt, path, "this run's target critics");
+      root.read("actor_optimizer", ao);
+      root.read("critic_optimizer", qo);
+      actor_opt_->load(ao);
+      critic_opt_->load(qo);
+      torch::Tensor s;
+      root.read("gradient_steps", s);
+      steps_.copy_(s.to(torch::kCPU));
+    });
+  }
+
+  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
+    torch::serialize::InputArchive a;
+    read_checked(path, "holds no actor", [&] { root.read("actor", a); });
+    load_module_checked(*actor_, a, path, "this run's actor");
+  }
+
+  torch::Tensor actor(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    return actor_->forward(obs);
+  }
+
+ private:
+  Td3Config c_;
+  Td3Actor actor_, actor_target_;
+  Td3Critic critic_, critic_target_;
+  std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_;
+  std::unique_ptr<ReplayBuffer> replay_;
+  torch::Tensor steps_;  // gradient steps so far (the policy delay's phase; checkpointed)
+  torch::Tensor last_obs_, last_act_;
+};
+
+}  // namespace
+
+std::unique_ptr<Algorithm> make_td3(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                    int64_t nslot, const torch::Device& device) {
+  return std::make_unique<Td3Algorithm>(config, obs_dim, act_dim, nslot, device);
+}
+
+}  // namespace bidex::rl

@@ -1,0 +1,35 @@
+// TD3 (Fujimoto et al. 2018) and DDPG (Lillicrap et al. 2015) on the learning core: a
+// deterministic tanh actor explored with Gaussian action noise, critics with Polyak-averaged
+// target networks, and the ReplayBuffer. Each update follows `horizon` steps of every slot with
+// epochs x minibatches gradient steps on `batch_size` sampled transitions. TD3 adds a second
+// critic (the minimum of the two in the target), target policy smoothing (clipped noise on the
+// target action) and a delayed actor: the actor and the targets move every `policy_delay`
+// critic steps. DDPG is the same class with one critic, no smoothing and no delay.
+#pragma once
+
+#include <memory>
+
+#include <torch/torch.h>
+
+#include "rl/algorithm.h"
+
+namespace bidex::rl {
+
+// The target action: clamp(mu' + clamp(noise x std, -clip, clip), -1, 1), where `noise` is a
+// standard normal draw (std 0: mu' clamped).
+torch::Tensor td3_target_action(const torch::Tensor& mu_next, const torch::Tensor& noise,
+                                double std, double clip);
+// The critics' target: r + gamma (1 - terminal) min(q1', q2') (DDPG: pass q1' twice).
+torch::Tensor td3_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
+                           const torch::Tensor& q1_next, const torch::Tensor& q2_next,
+                           double gamma);
+// Whether gradient step `step` (counted from 0 over the run) moves the actor and the targets.
+inline bool td3_actor_step(int64_t step, int policy_delay) {
+  return (step + 1) % policy_delay == 0;
+}
+
+// td3 or ddpg, by the config's section (config.td3.twin).
+std::unique_ptr<Algorithm> make_td3(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
+                                    int64_t nslot, const torch::Device& device);
+
+}  // namespace bidex::rl
