@@ -212,12 +212,11 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     c.torch_threads = positive(t, "torch_threads", 0);
     if (auto tf = t.maybe("tf32")) c.tf32 = tf->as<bool>();
   }
-  if (info.section == "sac") {
-    auto p = v.child("sac");
-    p.allow_keys({"hidden", "activation", "horizon", "minibatches", "batch_size", "replay_size",
-                  "lr", "gamma", "polyak", "init_alpha", "learn_alpha", "max_grad_norm",
-                  "reward_scale"});
-    auto& o = c.sac;
+  // the keys every replay-buffer algorithm has (SacConfig, Td3Config), after allow_keys
+  const std::vector<std::string> replay_keys = {
+      "hidden", "activation", "horizon", "minibatches", "batch_size", "replay_size",
+      "lr",     "gamma",      "polyak",  "max_grad_norm", "reward_scale"};
+  auto replay_common = [&](const YamlView& p, auto& o) {
     o.hidden = widths(p.child("hidden"));
     o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
     o.horizon = positive(p, "horizon", 1);
@@ -227,37 +226,34 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     o.lr = real(p, "lr", 0, 1, true);
     o.gamma = real(p, "gamma", 0, 1, false);
     o.polyak = real(p, "polyak", 0, 1, false);
-    o.init_alpha = real(p, "init_alpha", 0, 1e3, true);
-    o.learn_alpha = p.req<bool>("learn_alpha");
     o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
     o.reward_scale = real(p, "reward_scale", 0, 1e6, true);
     if (o.replay_size < c.slots)
       p.child("replay_size").fail("at least env.slots (" + std::to_string(c.slots) +
                                   ") transitions, one step of every slot",
                                   std::to_string(o.replay_size));
+  };
+  if (info.section == "sac") {
+    auto p = v.child("sac");
+    std::vector<std::string> keys = replay_keys;
+    keys.insert(keys.end(), {"init_alpha", "learn_alpha"});
+    p.allow_keys(keys);
+    auto& o = c.sac;
+    replay_common(p, o);
+    o.init_alpha = real(p, "init_alpha", 0, 1e3, true);
+    o.learn_alpha = p.req<bool>("learn_alpha");
     return c;
   }
   if (info.section == "td3" || info.section == "ddpg") {
     const bool td3 = info.section == "td3";
     auto p = v.child(info.section);
-    std::vector<std::string> keys = {"hidden", "activation", "horizon", "epochs", "minibatches",
-                                     "batch_size", "replay_size", "lr", "gamma", "polyak",
-                                     "max_grad_norm", "reward_scale", "act_noise"};
+    std::vector<std::string> keys = replay_keys;
+    keys.insert(keys.end(), {"epochs", "act_noise"});
     if (td3) keys.insert(keys.end(), {"target_noise", "noise_clip", "policy_delay"});
     p.allow_keys(keys);
     auto& o = c.td3;
-    o.hidden = widths(p.child("hidden"));
-    o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
-    o.horizon = positive(p, "horizon", 1);
+    replay_common(p, o);
     o.epochs = positive(p, "epochs", 1);
-    o.minibatches = positive(p, "minibatches", 1);
-    o.batch_size = positive(p, "batch_size", 1);
-    o.replay_size = positive(p, "replay_size", 1);
-    o.lr = real(p, "lr", 0, 1, true);
-    o.gamma = real(p, "gamma", 0, 1, false);
-    o.polyak = real(p, "polyak", 0, 1, false);
-    o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
-    o.reward_scale = real(p, "reward_scale", 0, 1e6, true);
     o.act_noise = real(p, "act_noise", 0, 10, false);
     o.twin = td3;
     if (td3) {
@@ -269,10 +265,6 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       o.noise_clip = 0;
       o.policy_delay = 1;
     }
-    if (o.replay_size < c.slots)
-      p.child("replay_size").fail("at least env.slots (" + std::to_string(c.slots) +
-                                  ") transitions, one step of every slot",
-                                  std::to_string(o.replay_size));
     return c;
   }
   {
