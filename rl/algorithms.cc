@@ -28,6 +28,8 @@ const std::vector<Entry>& entries() {
       // multi-task TRPO: TRPO on a multi-task suite's pack
       {{"mttrpo", "multi-task TRPO", TrainsOn::kSuite, "trpo"}, make_trpo},
       {{"sac", "SAC", TrainsOn::kTask, "sac"}, make_sac},
+      // multi-task SAC: one temperature per task of the suite, from the one-hot task id
+      {{"mtsac", "multi-task SAC", TrainsOn::kSuite, "sac"}, make_mtsac},
       {{"td3", "TD3", TrainsOn::kTask, "td3"}, make_td3},
       {{"ddpg", "DDPG", TrainsOn::kTask, "ddpg"}, make_td3},
   };

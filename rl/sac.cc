@@ -1,17 +1,31 @@
 #include "rl/sac.h"
 
+#include <algorithm>
 #include <cmath>
 
+#include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
+#include "taskpack/suite.h"
 
 namespace bidex::rl {
 
 torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
                            const torch::Tensor& q1_next, const torch::Tensor& q2_next,
+                           const torch::Tensor& logp_next, const torch::Tensor& alpha,
+                           double gamma) {
+  return reward + gamma * (1 - terminal) * (torch::min(q1_next, q2_next) - alpha * logp_next);
+}
+
+torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
+                           const torch::Tensor& q1_next, const torch::Tensor& q2_next,
                            const torch::Tensor& logp_next, double alpha, double gamma) {
   return reward + gamma * (1 - terminal) * (torch::min(q1_next, q2_next) - alpha * logp_next);
+}
+
+torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks) {
+  return obs.narrow(1, obs.size(1) - ntasks, ntasks).argmax(1);
 }
 
 torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor& logp,
@@ -67,9 +81,11 @@ TORCH_MODULE(SacCritic);
 
 class SacAlgorithm final : public Algorithm {
  public:
+  // ntasks > 0: one temperature per task, read from the last ntasks columns (the one-hot id)
   SacAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
-               const torch::Device& device)
+               const torch::Device& device, int64_t ntasks = 0)
       : c_(config.sac),
+        ntasks_(ntasks),
         actor_(D, A, config.sac),
         critic_(D, A, config.sac),
         target_(D, A, config.sac),
@@ -79,7 +95,7 @@ class SacAlgorithm final : public Algorithm {
     target_->to(device);
     polyak_update(*critic_, *target_, 0.0);
     for (auto& p : target_->parameters()) p.set_requires_grad(false);
-    log_alpha_ = torch::full({1}, std::log(c_.init_alpha),
+    log_alpha_ = torch::full({std::max<int64_t>(ntasks, 1)}, std::log(c_.init_alpha),
                              torch::TensorOptions().dtype(torch::kFloat32).device(device))
                      .set_requires_grad(true);
     actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
@@ -115,14 +131,20 @@ class SacAlgorithm final : public Algorithm {
         {6}, torch::TensorOptions().dtype(torch::kFloat64).device(log_alpha_.device()));
     for (int k = 0; k < c_.minibatches; ++k) {
       const auto b = replay_->sample(c_.batch_size);
-      const double alpha = std::exp(log_alpha_.item<double>());
+      // each row's temperature (one task: the one), and the log of it for the temperature loss
+      const torch::Tensor row_log_alpha =
+          ntasks_ > 0 ? log_alpha_.index_select(0, task_ids(b.obs, ntasks_)) : log_alpha_;
+      const torch::Tensor alpha = torch::exp(row_log_alpha).detach();
       // critics
       torch::Tensor target;
       {
         torch::NoGradGuard ng;
         auto [a_next, logp_next] = actor_->sample(b.next_obs);
         auto [q1n, q2n] = target_->forward(b.next_obs, a_next);
-        target = sac_q_target(b.rewards, b.terminal, q1n, q2n, logp_next, alpha, c_.gamma);
+        const torch::Tensor alpha_next =
+            ntasks_ > 0 ? torch::exp(log_alpha_.index_select(0, task_ids(b.next_obs, ntasks_)))
+                        : alpha;
+        target = sac_q_target(b.rewards, b.terminal, q1n, q2n, logp_next, alpha_next, c_.gamma);
       }
       auto [q1, q2] = critic_->forward(b.obs, b.actions);
       auto q_loss = 0.5 * ((q1 - target).pow(2).mean() + (q2 - target).pow(2).mean());
@@ -139,7 +161,7 @@ class SacAlgorithm final : public Algorithm {
       torch::nn::utils::clip_grad_norm_(actor_->parameters(), c_.max_grad_norm);
       actor_opt_->step();
       // temperature
-      auto alpha_loss = sac_alpha_loss(log_alpha_, logp, target_entropy_);
+      auto alpha_loss = sac_alpha_loss(row_log_alpha, logp, target_entropy_);
       if (c_.learn_alpha) {
         alpha_opt_->zero_grad();
         alpha_loss.backward();
@@ -149,7 +171,7 @@ class SacAlgorithm final : public Algorithm {
       torch::NoGradGuard ng;
       sums += torch::stack({q_loss.detach(), actor_loss.detach(), alpha_loss.detach(),
                             -logp.detach().mean(), q1.detach().mean(),
-                            torch::exp(log_alpha_.detach()).squeeze()})
+                            torch::exp(log_alpha_.detach()).mean()})
                   .to(torch::kFloat64);
     }
     auto m = (sums / c_.minibatches).to(torch::kCPU);
@@ -215,6 +237,7 @@ class SacAlgorithm final : public Algorithm {
 
  private:
   SacConfig c_;
+  int64_t ntasks_;
   SacActor actor_;
   SacCritic critic_, target_;
   torch::Tensor log_alpha_;
@@ -229,6 +252,18 @@ class SacAlgorithm final : public Algorithm {
 std::unique_ptr<Algorithm> make_sac(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device) {
   return std::make_unique<SacAlgorithm>(config, obs_dim, act_dim, nslot, device);
+}
+
+std::unique_ptr<Algorithm> make_mtsac(const TrainConfig& config, int64_t obs_dim,
+                                      int64_t act_dim, int64_t nslot,
+                                      const torch::Device& device) {
+  // the suite's pack carries a one-hot id as wide as its train split (taskpack::suite_pack)
+  const int64_t ntasks =
+      static_cast<int64_t>(taskpack::load_suite(config.suite).train.size());
+  if (ntasks < 1 || ntasks >= obs_dim)
+    throw Error("mtsac: suite " + config.suite + " has " + std::to_string(ntasks) +
+                " train tasks for observations of " + std::to_string(obs_dim));
+  return std::make_unique<SacAlgorithm>(config, obs_dim, act_dim, nslot, device, ntasks);
 }
 
 }  // namespace bidex::rl

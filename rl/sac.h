@@ -14,11 +14,17 @@
 namespace bidex::rl {
 
 // The critics' target: r + gamma (1 - terminal) (min(q1', q2') - alpha log pi(a'|s')).
+// `alpha` is one value, or one per row (multi-task SAC: each row's task's temperature).
+torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
+                           const torch::Tensor& q1_next, const torch::Tensor& q2_next,
+                           const torch::Tensor& logp_next, const torch::Tensor& alpha,
+                           double gamma);
 torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
                            const torch::Tensor& q1_next, const torch::Tensor& q2_next,
                            const torch::Tensor& logp_next, double alpha, double gamma);
 // The temperature's loss: -mean(log_alpha (log pi(a|s) + target_entropy)), its gradient pushing
-// the policy's entropy -E[log pi] towards target_entropy.
+// the policy's entropy -E[log pi] towards target_entropy. `log_alpha` is one value, or one per row
+// (multi-task SAC: each row's task's, so that each task's temperature follows its own entropy).
 torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor& logp,
                              double target_entropy);
 // log pi(tanh(u)) of a tanh-squashed Gaussian at the pre-squash sample u, per row: the
@@ -26,7 +32,16 @@ torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor
 torch::Tensor tanh_gaussian_log_prob(const torch::Tensor& u, const torch::Tensor& mean,
                                      const torch::Tensor& log_std);
 
+// The task of each row of a multi-task pack's observations: the column of the one-hot id, the
+// last `ntasks` columns.
+torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks);
+
 std::unique_ptr<Algorithm> make_sac(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device);
+// Multi-task SAC on a suite's pack (config.suite): SAC with one learned temperature per task of
+// the suite's train split, each row's taken from its one-hot task id.
+std::unique_ptr<Algorithm> make_mtsac(const TrainConfig& config, int64_t obs_dim,
+                                      int64_t act_dim, int64_t nslot,
+                                      const torch::Device& device);
 
 }  // namespace bidex::rl

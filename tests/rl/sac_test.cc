@@ -82,3 +82,52 @@ TEST_CASE("a SAC run stops, resumes from its checkpoint and evaluates", "[rl][sa
     CHECK(std::string(err.what()).find("at least env.slots (64)") != std::string::npos);
   }
 }
+
+TEST_CASE("multi-task SAC: each task's temperature follows its own rows", "[rl][sac][mtsac]") {
+  // two tasks; the last two columns are the one-hot id: row 0 is task 1, row 1 task 0
+  const auto obs = torch::tensor({{0.3, 0.0, 1.0}, {-0.2, 1.0, 0.0}});
+  const auto ids = rl::task_ids(obs, 2);
+  CHECK(ids[0].item<int64_t>() == 1);
+  CHECK(ids[1].item<int64_t>() == 0);
+  // log alpha = (log 0.5, log 2); logp = (-3, -1), target entropy -2:
+  // loss = -mean(la[id] (logp - 2)) = -(log 2 x -5 + log 0.5 x -3) / 2, and its gradient reaches
+  // each task's temperature through its own row only: d/d la0 = 3/2 (row 1), d/d la1 = 5/2 (row 0)
+  auto la = torch::tensor({std::log(0.5), std::log(2.0)}, torch::kFloat64).set_requires_grad(true);
+  auto loss = rl::sac_alpha_loss(la.index_select(0, ids), torch::tensor({-3.0, -1.0},
+                                 torch::kFloat64), -2.0);
+  CHECK(loss.item<double>() == Approx(-(std::log(2.0) * -5 + std::log(0.5) * -3) / 2));
+  loss.backward();
+  CHECK(la.grad()[0].item<double>() == Approx(1.5));
+  CHECK(la.grad()[1].item<double>() == Approx(2.5));
+  // the target with each row's temperature: 1 + 0.5 (min(2, 3) + 0.5 x 1) = 2.25 and
+  // 1 + 0.5 (min(2, 1) + 2 x 2) = 3.5
+  const auto y = rl::sac_q_target(torch::tensor({1.0, 1.0}), torch::tensor({0.0, 0.0}),
+                                  torch::tensor({2.0, 2.0}), torch::tensor({3.0, 1.0}),
+                                  torch::tensor({-1.0, -2.0}), torch::tensor({0.5, 2.0}), 0.5);
+  CHECK(y[0].item<float>() == Approx(2.25));
+  CHECK(y[1].item<float>() == Approx(3.5));
+}
+
+TEST_CASE("an MTSAC run on a suite trains, resumes and evaluates per task", "[rl][sac][mtsac]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("mtsac");
+  const std::vector<std::string> o = {
+      "env.slots=4",       "env.threads=1",     "train.steps=64",       "sac.hidden=[32]",
+      "sac.horizon=8",     "sac.minibatches=2", "sac.batch_size=16",    "sac.replay_size=64",
+      "train.save_interval=1", "train.device=cpu", "train.torch_threads=1"};
+  const std::string yaml =
+      rl::resolve_train_yaml(rl::default_train_config("mtsac"), "mtsac", "MT4", o);
+  CHECK(yaml.find("suite: MT4") != std::string::npos);
+  auto opt = test::quiet();
+  opt.stop_after_updates = 1;
+  auto r = rl::train_new(yaml, dir, opt);
+  CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).algo == "mtsac");
+  r = rl::train_resume(dir, test::quiet());
+  CHECK(r.updates == 2);
+  const std::string csv = read_file(dir + "/metrics.csv");
+  for (const char* c : {"return_hand_over", "alpha", "alpha_loss"})
+    CHECK(csv.find(c) != std::string::npos);
+  rl::LoadedPolicy p(dir);
+  const auto e = rl::evaluate(p, 2, 3, 1);
+  CHECK(e.per_task.size() == 4);
+}
