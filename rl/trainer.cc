@@ -26,6 +26,7 @@
 #include "rl/metrics.h"
 #include "sim/batch.h"
 #include "sim/tensor.h"
+#include "sim/warp_backend.h"
 #include "taskpack/pack.h"
 #include "taskpack/suite.h"
 #include "taskpack/warp_pack.h"
@@ -208,6 +209,7 @@ struct Session {
     const std::string d = taskpack::choose_pack_device(requested, spec, why);
     if (d != "cuda") return d;
     const bool asked = requested == "cuda";
+    if (asked) sim::require_gpu();  // the machine's lack first, then the learner's
     if (cfg.device == "cpu") {
       if (asked)
         throw ConfigError(name, "train.device",

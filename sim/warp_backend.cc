@@ -154,10 +154,7 @@ WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
   if (nworld < 1) throw Error("GPU backend: nworld must be >= 1, got " + std::to_string(nworld));
   if (options_.njmax <= 0) options_.njmax = model.physics().gpu_njmax;
   if (options_.nconmax <= 0) options_.nconmax = model.physics().gpu_nconmax;
-  const bool want_gpu = options_.device.rfind("cuda", 0) == 0;
-  if (want_gpu && !cuda::driver_available())
-    throw DeviceError("--device cuda: no NVIDIA driver on this machine (libcuda.so.1 did not "
-                      "load); use --device cpu");
+  if (options_.device.rfind("cuda", 0) == 0) require_gpu();
   ensure_python();
   py::gil_scoped_acquire gil;
   py::module_ mod = import_bridge();
@@ -275,6 +272,13 @@ size_t WarpBackend::device_bytes() const {
 }
 
 #endif  // BIDEX_WARP
+
+void require_gpu() {
+  if (!warp_built()) throw DeviceError(warp_missing());
+  if (!cuda::driver_available())
+    throw DeviceError("--device cuda: no NVIDIA driver on this machine (libcuda.so.1 did not "
+                      "load); use --device cpu");
+}
 
 void WarpBackend::upload(const std::string& name, const std::vector<float>& values) {
   const WorldArray a = array(name);

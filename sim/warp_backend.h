@@ -38,6 +38,9 @@ struct WorldArray {
 // Whether this build can make a WarpBackend, and if not why (names what to install).
 bool warp_built();
 std::string warp_missing();
+// Throws the DeviceError of `--device cuda` where this build has no GPU backend or the machine
+// no NVIDIA driver, naming what is missing; returns otherwise.
+void require_gpu();
 
 class WarpBackend {
  public:
