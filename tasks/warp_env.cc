@@ -17,21 +17,11 @@ template <class B>
 class HostRunner : public StageRunner {
  public:
   explicit HostRunner(const typename B::Program& p) : p_(p) {}
-  void apply(const WorldArrays& a, int n) override {
+  void run(Stage s, const WorldArrays& a, int n) override {
+    with_stage(s, [&](auto stage) {
 #pragma omp parallel for schedule(static)
-    for (int w = 0; w < n; ++w) world_apply<B>(p_, a, w);
-  }
-  void evaluate(const WorldArrays& a, int n) override {
-#pragma omp parallel for schedule(static)
-    for (int w = 0; w < n; ++w) world_evaluate<B>(p_, a, w);
-  }
-  void reset(const WorldArrays& a, int n) override {
-#pragma omp parallel for schedule(static)
-    for (int w = 0; w < n; ++w) world_reset<B>(p_, a, w);
-  }
-  void observe(const WorldArrays& a, int n) override {
-#pragma omp parallel for schedule(static)
-    for (int w = 0; w < n; ++w) world_observe<B>(p_, a, w);
+      for (int w = 0; w < n; ++w) world_stage<B, decltype(stage)::value>(p_, a, w);
+    });
   }
 
  private:
@@ -192,14 +182,14 @@ void WarpTaskEnv::reset() {
   std::vector<int32_t> all(nslot_, 1);
   backend_->upload_bytes("reset", all.data(), all.size() * sizeof(int32_t));
   backend_->reset_begin();
-  runner_->reset(arrays_, nslot_);
+  runner_->run(Stage::kReset, arrays_, nslot_);
   backend_->reset_end();
-  runner_->observe(arrays_, nslot_);
+  runner_->run(Stage::kObserve, arrays_, nslot_);
 }
 
 void WarpTaskEnv::step() {
   const double t0 = profile_on_ ? monotonic_seconds() : 0;
-  runner_->apply(arrays_, nslot_);
+  runner_->run(Stage::kApply, arrays_, nslot_);
   double t1 = 0, t2 = 0;
   if (profile_on_) {
     backend_->synchronize();
@@ -210,11 +200,11 @@ void WarpTaskEnv::step() {
     backend_->synchronize();
     t2 = monotonic_seconds();
   }
-  runner_->evaluate(arrays_, nslot_);
+  runner_->run(Stage::kEvaluate, arrays_, nslot_);
   backend_->reset_begin();
-  runner_->reset(arrays_, nslot_);
+  runner_->run(Stage::kReset, arrays_, nslot_);
   backend_->reset_end();
-  runner_->observe(arrays_, nslot_);
+  runner_->run(Stage::kObserve, arrays_, nslot_);
   if (profile_on_) {
     backend_->synchronize();
     const double t3 = monotonic_seconds();

@@ -29,14 +29,11 @@ struct WarpEnvOptions {
   std::string physics_file;     // empty: configs/sim/physics.yaml
 };
 
-// The four stages of one family over all worlds (CUDA kernels, or a host loop).
+// One stage of one family over all worlds (CUDA kernels, or a host loop).
 class StageRunner {
  public:
   virtual ~StageRunner() = default;
-  virtual void apply(const WorldArrays& a, int n) = 0;
-  virtual void evaluate(const WorldArrays& a, int n) = 0;
-  virtual void reset(const WorldArrays& a, int n) = 0;
-  virtual void observe(const WorldArrays& a, int n) = 0;
+  virtual void run(Stage s, const WorldArrays& a, int n) = 0;
 };
 
 // Whether the task's family has stage bodies on the GPU path (tasks/gpu_families.h).

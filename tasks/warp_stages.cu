@@ -15,25 +15,10 @@ namespace {
 
 constexpr int kBlock = 128;
 
-template <class B>
-__global__ void apply_kernel(const typename B::Program* p, WorldArrays a, int n) {
+template <class B, Stage S>
+__global__ void stage_kernel(const typename B::Program* p, WorldArrays a, int n) {
   const int w = blockIdx.x * blockDim.x + threadIdx.x;
-  if (w < n) world_apply<B>(*p, a, w);
-}
-template <class B>
-__global__ void evaluate_kernel(const typename B::Program* p, WorldArrays a, int n) {
-  const int w = blockIdx.x * blockDim.x + threadIdx.x;
-  if (w < n) world_evaluate<B>(*p, a, w);
-}
-template <class B>
-__global__ void reset_kernel(const typename B::Program* p, WorldArrays a, int n) {
-  const int w = blockIdx.x * blockDim.x + threadIdx.x;
-  if (w < n) world_reset<B>(*p, a, w);
-}
-template <class B>
-__global__ void observe_kernel(const typename B::Program* p, WorldArrays a, int n) {
-  const int w = blockIdx.x * blockDim.x + threadIdx.x;
-  if (w < n) world_observe<B>(*p, a, w);
+  if (w < n) world_stage<B, S>(*p, a, w);
 }
 
 void check(cudaError_t e, const char* what) {
@@ -51,21 +36,11 @@ class CudaRunner : public StageRunner {
     check(cudaStreamSynchronize(stream_), "copying it");
   }
   ~CudaRunner() override { cudaFree(p_); }
-  void apply(const WorldArrays& a, int n) override {
-    apply_kernel<B><<<grid(n), kBlock, 0, stream_>>>(p_, a, n);
-    check(cudaGetLastError(), "apply_actions");
-  }
-  void evaluate(const WorldArrays& a, int n) override {
-    evaluate_kernel<B><<<grid(n), kBlock, 0, stream_>>>(p_, a, n);
-    check(cudaGetLastError(), "evaluate");
-  }
-  void reset(const WorldArrays& a, int n) override {
-    reset_kernel<B><<<grid(n), kBlock, 0, stream_>>>(p_, a, n);
-    check(cudaGetLastError(), "reset");
-  }
-  void observe(const WorldArrays& a, int n) override {
-    observe_kernel<B><<<grid(n), kBlock, 0, stream_>>>(p_, a, n);
-    check(cudaGetLastError(), "observe");
+  void run(Stage s, const WorldArrays& a, int n) override {
+    with_stage(s, [&](auto stage) {
+      stage_kernel<B, decltype(stage)::value><<<grid(n), kBlock, 0, stream_>>>(p_, a, n);
+    });
+    check(cudaGetLastError(), stage_name(s));
   }
 
  private:

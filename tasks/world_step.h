@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <type_traits>
 
 #include "core/hd.h"
 #include "core/rng.h"
@@ -154,6 +155,42 @@ BIDEX_HD void world_observe(const typename B::Program& p, const WorldArrays& a, 
   float* o = a.obs + static_cast<int64_t>(w) * a.obs_dim;
   B::observe(p, world_rows(a, w), a.state[w], o);
   clip_row(o, a.obs_dim, a.obs_clip);
+}
+
+// The four stages by name, so that a runner writes its loop or kernel once for all of them.
+enum class Stage { kApply, kEvaluate, kReset, kObserve };
+
+inline const char* stage_name(Stage s) {
+  switch (s) {
+    case Stage::kApply: return "apply_actions";
+    case Stage::kEvaluate: return "evaluate";
+    case Stage::kReset: return "reset";
+    case Stage::kObserve: return "observe";
+  }
+  return "?";
+}
+
+template <class B, Stage S>
+BIDEX_HD void world_stage(const typename B::Program& p, const WorldArrays& a, int w) {
+  if constexpr (S == Stage::kApply)
+    world_apply<B>(p, a, w);
+  else if constexpr (S == Stage::kEvaluate)
+    world_evaluate<B>(p, a, w);
+  else if constexpr (S == Stage::kReset)
+    world_reset<B>(p, a, w);
+  else
+    world_observe<B>(p, a, w);
+}
+
+// Calls f(std::integral_constant<Stage, s>{}): a runtime stage to a compile-time one.
+template <class F>
+void with_stage(Stage s, F&& f) {
+  switch (s) {
+    case Stage::kApply: return f(std::integral_constant<Stage, Stage::kApply>{});
+    case Stage::kEvaluate: return f(std::integral_constant<Stage, Stage::kEvaluate>{});
+    case Stage::kReset: return f(std::integral_constant<Stage, Stage::kReset>{});
+    case Stage::kObserve: return f(std::integral_constant<Stage, Stage::kObserve>{});
+  }
 }
 
 }  // namespace bidex::tasks
