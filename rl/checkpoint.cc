@@ -168,4 +168,18 @@ void read_checked(const std::string& path, const std::string& problem,
   }
 }
 
+void read_module(torch::serialize::InputArchive& root, const std::string& name,
+                 torch::nn::Module& m, const std::string& path, const std::string& what) {
+  torch::serialize::InputArchive a;
+  root.read(name, a);
+  load_module_checked(m, a, path, what);
+}
+
+void read_optimizer(torch::serialize::InputArchive& root, const std::string& name,
+                    torch::optim::Optimizer& o) {
+  torch::serialize::InputArchive a;
+  root.read(name, a);
+  o.load(a);
+}
+
 }  // namespace bidex::rl

@@ -44,6 +44,20 @@ std::vector<std::string> list_checkpoints(const std::string& run_dir);
 void load_module_checked(torch::nn::Module& m, torch::serialize::InputArchive& archive,
                          const std::string& path, const std::string& what);
 
+// One named part of an algorithm's state (a module or an optimiser), in its own archive.
+template <class Part>
+void write_part(torch::serialize::OutputArchive& root, const std::string& name, const Part& part) {
+  torch::serialize::OutputArchive a;
+  part.save(a);
+  root.write(name, a);
+}
+// Reads the module part `name` into `m`, checked as load_module_checked does.
+void read_module(torch::serialize::InputArchive& root, const std::string& name,
+                 torch::nn::Module& m, const std::string& path, const std::string& what);
+// Reads the optimiser part `name` into `o`.
+void read_optimizer(torch::serialize::InputArchive& root, const std::string& name,
+                    torch::optim::Optimizer& o);
+
 // Runs `read` (an algorithm reading its state from a loaded archive) and turns LibTorch's errors
 // into an Error naming `path`: "checkpoint PATH: <problem> (<LibTorch's first line>)".
 void read_checked(const std::string& path, const std::string& problem,

@@ -53,9 +53,8 @@ double GaussianOnPolicy::action_std() const {
 }
 
 void GaussianOnPolicy::load_actor(torch::serialize::InputArchive& root, const std::string& path) {
-  torch::serialize::InputArchive net;
-  read_checked(path, "holds no networks", [&] { root.read("model", net); });
-  load_module_checked(*model_, net, path, "this run's networks");
+  read_checked(path, "holds no networks",
+               [&] { read_module(root, "model", *model_, path, "this run's networks"); });
 }
 
 torch::Tensor GaussianOnPolicy::actor(const torch::Tensor& obs) {

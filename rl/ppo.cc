@@ -161,21 +161,15 @@ class PpoAlgorithm final : public GaussianOnPolicy {
   }
 
   void save(torch::serialize::OutputArchive& root) override {
-    torch::serialize::OutputArchive net, opt;
-    model_->save(net);
-    ppo_->optimizer().save(opt);
-    root.write("model", net);
-    root.write("optimizer", opt);
+    write_part(root, "model", *model_);
+    write_part(root, "optimizer", ppo_->optimizer());
     root.write("lr", torch::tensor({ppo_->lr()}, torch::kFloat64));
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
-      torch::serialize::InputArchive net, opt;
-      root.read("model", net);
-      root.read("optimizer", opt);
-      load_module_checked(*model_, net, path, "this run's networks");
-      ppo_->optimizer().load(opt);
+      read_module(root, "model", *model_, path, "this run's networks");
+      read_optimizer(root, "optimizer", ppo_->optimizer());
       torch::Tensor lr;
       root.read("lr", lr);
       ppo_->set_lr(lr.item<double>());

@@ -186,37 +186,23 @@ class SacAlgorithm final : public Algorithm {
   }
 
   void save(torch::serialize::OutputArchive& root) override {
-    torch::serialize::OutputArchive a, q, t, ao, qo, lo;
-    actor_->save(a);
-    critic_->save(q);
-    target_->save(t);
-    actor_opt_->save(ao);
-    critic_opt_->save(qo);
-    alpha_opt_->save(lo);
-    root.write("actor", a);
-    root.write("critic", q);
-    root.write("target", t);
-    root.write("actor_optimizer", ao);
-    root.write("critic_optimizer", qo);
-    root.write("alpha_optimizer", lo);
+    write_part(root, "actor", *actor_);
+    write_part(root, "critic", *critic_);
+    write_part(root, "target", *target_);
+    write_part(root, "actor_optimizer", *actor_opt_);
+    write_part(root, "critic_optimizer", *critic_opt_);
+    write_part(root, "alpha_optimizer", *alpha_opt_);
     root.write("log_alpha", log_alpha_.detach());
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
-      torch::serialize::InputArchive a, q, t, ao, qo, lo;
-      root.read("actor", a);
-      root.read("critic", q);
-      root.read("target", t);
-      load_module_checked(*actor_, a, path, "this run's actor");
-      load_module_checked(*critic_, q, path, "this run's critics");
-      load_module_checked(*target_, t, path, "this run's target critics");
-      root.read("actor_optimizer", ao);
-      root.read("critic_optimizer", qo);
-      root.read("alpha_optimizer", lo);
-      actor_opt_->load(ao);
-      critic_opt_->load(qo);
-      alpha_opt_->load(lo);
+      read_module(root, "actor", *actor_, path, "this run's actor");
+      read_module(root, "critic", *critic_, path, "this run's critics");
+      read_module(root, "target", *target_, path, "this run's target critics");
+      read_optimizer(root, "actor_optimizer", *actor_opt_);
+      read_optimizer(root, "critic_optimizer", *critic_opt_);
+      read_optimizer(root, "alpha_optimizer", *alpha_opt_);
       torch::Tensor la;
       root.read("log_alpha", la);
       torch::NoGradGuard ng;
@@ -225,9 +211,8 @@ class SacAlgorithm final : public Algorithm {
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
-    torch::serialize::InputArchive a;
-    read_checked(path, "holds no actor", [&] { root.read("actor", a); });
-    load_module_checked(*actor_, a, path, "this run's actor");
+    read_checked(path, "holds no actor",
+                 [&] { read_module(root, "actor", *actor_, path, "this run's actor"); });
   }
 
   torch::Tensor actor(const torch::Tensor& obs) override {

@@ -141,37 +141,23 @@ class Td3Algorithm final : public Algorithm {
   }
 
   void save(torch::serialize::OutputArchive& root) override {
-    torch::serialize::OutputArchive a, at, q, qt, ao, qo;
-    actor_->save(a);
-    actor_target_->save(at);
-    critic_->save(q);
-    critic_target_->save(qt);
-    actor_opt_->save(ao);
-    critic_opt_->save(qo);
-    root.write("actor", a);
-    root.write("actor_target", at);
-    root.write("critic", q);
-    root.write("critic_target", qt);
-    root.write("actor_optimizer", ao);
-    root.write("critic_optimizer", qo);
+    write_part(root, "actor", *actor_);
+    write_part(root, "actor_target", *actor_target_);
+    write_part(root, "critic", *critic_);
+    write_part(root, "critic_target", *critic_target_);
+    write_part(root, "actor_optimizer", *actor_opt_);
+    write_part(root, "critic_optimizer", *critic_opt_);
     root.write("gradient_steps", steps_);
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
-      torch::serialize::InputArchive a, at, q, qt, ao, qo;
-      root.read("actor", a);
-      root.read("actor_target", at);
-      root.read("critic", q);
-      root.read("critic_target", qt);
-      load_module_checked(*actor_, a, path, "this run's actor");
-      load_module_checked(*actor_target_, at, path, "this run's target actor");
-      load_module_checked(*critic_, q, path, "this run's critics");
-      load_module_checked(*critic_target_, qt, path, "this run's target critics");
-      root.read("actor_optimizer", ao);
-      root.read("critic_optimizer", qo);
-      actor_opt_->load(ao);
-      critic_opt_->load(qo);
+      read_module(root, "actor", *actor_, path, "this run's actor");
+      read_module(root, "actor_target", *actor_target_, path, "this run's target actor");
+      read_module(root, "critic", *critic_, path, "this run's critics");
+      read_module(root, "critic_target", *critic_target_, path, "this run's target critics");
+      read_optimizer(root, "actor_optimizer", *actor_opt_);
+      read_optimizer(root, "critic_optimizer", *critic_opt_);
       torch::Tensor s;
       root.read("gradient_steps", s);
       steps_.copy_(s.to(torch::kCPU));
@@ -179,9 +165,8 @@ class Td3Algorithm final : public Algorithm {
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
-    torch::serialize::InputArchive a;
-    read_checked(path, "holds no actor", [&] { root.read("actor", a); });
-    load_module_checked(*actor_, a, path, "this run's actor");
+    read_checked(path, "holds no actor",
+                 [&] { read_module(root, "actor", *actor_, path, "this run's actor"); });
   }
 
   torch::Tensor actor(const torch::Tensor& obs) override {

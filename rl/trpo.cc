@@ -160,20 +160,14 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
   }
 
   void save(torch::serialize::OutputArchive& root) override {
-    torch::serialize::OutputArchive net, opt;
-    model_->save(net);
-    critic_opt_->save(opt);
-    root.write("model", net);
-    root.write("critic_optimizer", opt);
+    write_part(root, "model", *model_);
+    write_part(root, "critic_optimizer", *critic_opt_);
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
-      torch::serialize::InputArchive net, opt;
-      root.read("model", net);
-      root.read("critic_optimizer", opt);
-      load_module_checked(*model_, net, path, "this run's networks");
-      critic_opt_->load(opt);
+      read_module(root, "model", *model_, path, "this run's networks");
+      read_optimizer(root, "critic_optimizer", *critic_opt_);
     });
   }
 
