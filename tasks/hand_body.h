@@ -103,6 +103,38 @@ BIDEX_HD Real tip_distance_sum(const HandRig& r, const sim::WorldRows<Real>& w, 
   return sum;
 }
 
+// Two blocks, each reached by one hand (push_block, block_stack): the left hand's fingertips to
+// block 1, the right hand's to block 2, and each block's distance to its target position.
+template <class Real>
+struct TwoBlockReach {
+  const Real* b1;  // the blocks' positions
+  const Real* b2;
+  Real d_left, d_right;  // fingertip distance sums
+  Real e1, e2;           // distances to the targets
+  // whether a hand strayed `max` or farther from its block (max <= 0: never)
+  BIDEX_HD bool strayed(double max) const {
+    return max > 0 && (d_left >= Real(max) || d_right >= Real(max));
+  }
+};
+template <class Real>
+BIDEX_HD TwoBlockReach<Real> two_block_reach(const HandRig (&hands)[2],
+                                             const sim::WorldRows<Real>& w, const int (&body)[2],
+                                             const double* target1, const double* target2) {
+  TwoBlockReach<Real> r;
+  r.b1 = w.xpos + 3 * body[0];
+  r.b2 = w.xpos + 3 * body[1];
+  r.d_left = tip_distance_sum(hands[1], w, r.b1);
+  r.d_right = tip_distance_sum(hands[0], w, r.b2);
+  Real t1[3], t2[3];
+  for (int k = 0; k < 3; ++k) {
+    t1[k] = Real(target1[k]);
+    t2[k] = Real(target2[k]);
+  }
+  r.e1 = math::dist3(r.b1, t1);
+  r.e2 = math::dist3(r.b2, t2);
+  return r;
+}
+
 // One hand's actions (paper order: 20 joints, then base translation 3 and rotation 3 when the
 // base is free), already clipped: joint targets l + (a + 1)(u - l) / 2 into ctrl, base force and
 // torque into the hand's 6 values of the base_wrench row.

@@ -32,21 +32,6 @@ inline void palm_point(const HandRig& r, const sim::SlotView& v, double* out) {
 inline double tip_distance_sum(const HandRig& r, const sim::SlotView& v, const double* p) {
   return tip_distance_sum(r, world_rows(v), p);
 }
-inline void body_velocity(const sim::SlotView& v, int body, int root_tree, double* lin,
-                          double* ang) {
-  body_velocity(world_rows(v), body, root_tree, lin, ang);
-}
-inline void apply_two_hand_actions(const HandRig (&hands)[2], const float* a, double* ctrl,
-                                   double* wrench) {
-  sim::WorldRows<double> w;
-  w.ctrl = ctrl;
-  w.base_wrench = wrench;
-  apply_two_hand_actions(hands, a, w);
-}
-inline float* observe_two_hands(const HandRig (&hands)[2], const sim::SlotView& v,
-                                const float* actions, float* obs) {
-  return observe_two_hands(hands, world_rows(v), actions, obs);
-}
 // The reset noise of both hands into a slot (its MuJoCo data and the batch's ctrl row).
 void randomise_hand_joints(const HandRig (&hands)[2], double noise, TaskSlot& t);
 

@@ -46,29 +46,20 @@ BIDEX_HD void block_stack_apply_actions(const BlockStackProgram& p, const float*
 template <class Real>
 BIDEX_HD bool block_stack_evaluate(const BlockStackProgram& p, const sim::WorldRows<Real>& w,
                                    SlotState& st, SlotRng&, Real* terms) {
-  const Real* b1 = w.xpos + 3 * p.body[0];
-  const Real* b2 = w.xpos + 3 * p.body[1];
-  const Real d_left = tip_distance_sum(p.hands[1], w, b1);
-  const Real d_right = tip_distance_sum(p.hands[0], w, b2);
-  Real t1[3], t2[3];
-  for (int k = 0; k < 3; ++k) {
-    t1[k] = Real(p.target[0][k]);
-    t2[k] = Real(p.target[1][k]);
-  }
-  const Real e1 = math::dist3(b1, t1), e2 = math::dist3(b2, t2);
+  const TwoBlockReach<Real> r = two_block_reach(p.hands, w, p.body, p.target[0], p.target[1]);
   terms[p.t_offset] = Real(p.offset);
-  terms[p.t_left] = -d_left;
-  terms[p.t_right] = -d_right;
+  terms[p.t_left] = -r.d_left;
+  terms[p.t_right] = -r.d_right;
   const Real gate = Real(p.goal_gate);
-  const bool gate_open = p.goal_gate <= 0 || (d_left < gate && d_right < gate);
-  terms[p.t_goal] = gate_open ? Real(p.goal_scale) * (Real(p.goal_offset) - (e1 + e2)) : Real(0);
-  const Real dz = math::abs(t1[2] - b1[2]);
+  const bool gate_open = p.goal_gate <= 0 || (r.d_left < gate && r.d_right < gate);
+  terms[p.t_goal] =
+      gate_open ? Real(p.goal_scale) * (Real(p.goal_offset) - (r.e1 + r.e2)) : Real(0);
+  const Real dz = math::abs(Real(p.target[0][2]) - r.b1[2]);
   const Real tol = Real(p.stack_tolerance);
-  const bool placed = e1 < tol && e2 < tol;
+  const bool placed = r.e1 < tol && r.e2 < tol;
   if (placed) terms[p.t_stack] = Real(p.stack_bonus_scale) * (Real(0.05) - dz);
   if (placed && dz < Real(p.height_tolerance)) st.success = true;
-  const Real far = Real(p.max_tip_distance);
-  return p.max_tip_distance > 0 && (d_left >= far || d_right >= far);
+  return r.strayed(p.max_tip_distance);
 }
 
 // Both hand blocks, block 1's object and goal blocks, both blocks' positions.

@@ -44,24 +44,14 @@ BIDEX_HD void push_block_apply_actions(const PushBlockProgram& p, const float* a
 template <class Real>
 BIDEX_HD bool push_block_evaluate(const PushBlockProgram& p, const sim::WorldRows<Real>& w,
                                   SlotState& st, SlotRng&, Real* terms) {
-  const Real* b1 = w.xpos + 3 * p.body[0];
-  const Real* b2 = w.xpos + 3 * p.body[1];
-  const Real d_left = tip_distance_sum(p.hands[1], w, b1);
-  const Real d_right = tip_distance_sum(p.hands[0], w, b2);
-  Real g1[3], g2[3];
-  for (int k = 0; k < 3; ++k) {
-    g1[k] = Real(p.goal[0][k]);
-    g2[k] = Real(p.goal[1][k]);
-  }
-  const Real e1 = math::dist3(b1, g1), e2 = math::dist3(b2, g2);
+  const TwoBlockReach<Real> r = two_block_reach(p.hands, w, p.body, p.goal[0], p.goal[1]);
   terms[p.t_offset] = Real(p.offset);
-  terms[p.t_left] = -d_left;
-  terms[p.t_right] = -d_right;
-  terms[p.t_goal] = Real(p.goal_scale) * (Real(p.goal_offset) - (e1 + e2));
+  terms[p.t_left] = -r.d_left;
+  terms[p.t_right] = -r.d_right;
+  terms[p.t_goal] = Real(p.goal_scale) * (Real(p.goal_offset) - (r.e1 + r.e2));
   const Real tol = Real(p.success_tolerance);
-  if (e1 <= tol && e2 <= tol) st.success = true;
-  const Real far = Real(p.max_tip_distance);
-  return p.max_tip_distance > 0 && (d_left >= far || d_right >= far);
+  if (r.e1 <= tol && r.e2 <= tol) st.success = true;
+  return r.strayed(p.max_tip_distance);
 }
 
 // Both hand blocks, block 1's object block, both blocks' positions.
