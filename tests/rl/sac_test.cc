@@ -13,6 +13,18 @@
 
 using namespace bidex;
 
+namespace {
+
+// A small SAC run: 4 slots, 2 updates of 8 steps, networks of 32, on the CPU.
+std::vector<std::string> tiny_sac() {
+  return {"env.slots=4",           "env.threads=1",     "train.steps=64",
+          "sac.hidden=[32]",       "sac.horizon=8",     "sac.minibatches=2",
+          "sac.batch_size=16",     "sac.replay_size=64", "train.save_interval=1",
+          "train.device=cpu",      "train.torch_threads=1"};
+}
+
+}  // namespace
+
 TEST_CASE("SAC's critic target and temperature loss match hand-worked values", "[rl][sac]") {
   // two transitions: r = (1, -2), the second terminal; min(q1', q2') = (3, 4) minus
   // alpha log pi' = 0.5 x (-1, 2): y = 1 + 0.9 (3 + 0.5) = 4.15 and -2 (no bootstrap)
@@ -52,10 +64,7 @@ TEST_CASE("the squashed Gaussian's density is the Gaussian's with the change of 
 TEST_CASE("a SAC run stops, resumes from its checkpoint and evaluates", "[rl][sac]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("sac");
-  const std::vector<std::string> o = {
-      "env.slots=4",       "env.threads=1",     "train.steps=64",       "sac.hidden=[32]",
-      "sac.horizon=8",     "sac.minibatches=2", "sac.batch_size=16",    "sac.replay_size=64",
-      "train.save_interval=1", "train.device=cpu", "train.torch_threads=1"};
+  const std::vector<std::string> o = tiny_sac();
   const std::string yaml =
       rl::resolve_train_yaml(rl::default_train_config("sac"), "sac", "catch_underarm_raise", o);
   auto opt = test::quiet();
@@ -111,10 +120,7 @@ TEST_CASE("multi-task SAC: each task's temperature follows its own rows", "[rl][
 TEST_CASE("an MTSAC run on a suite trains, resumes and evaluates per task", "[rl][sac][mtsac]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("mtsac");
-  const std::vector<std::string> o = {
-      "env.slots=4",       "env.threads=1",     "train.steps=64",       "sac.hidden=[32]",
-      "sac.horizon=8",     "sac.minibatches=2", "sac.batch_size=16",    "sac.replay_size=64",
-      "train.save_interval=1", "train.device=cpu", "train.torch_threads=1"};
+  const std::vector<std::string> o = tiny_sac();
   const std::string yaml =
       rl::resolve_train_yaml(rl::default_train_config("mtsac"), "mtsac", "MT4", o);
   CHECK(yaml.find("suite: MT4") != std::string::npos);
