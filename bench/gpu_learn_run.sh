@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# PPO end to end on the GPU path (bidex train --device cuda), on a GPU machine without package
+# Training on the GPU path (bidex train --device cuda), on a GPU machine without package
 # access. One stage per call, so that a device session can be spent in slices:
 #   bench/gpu_learn_run.sh build PARTS
 #       join the bundle's parts (scripts/offline-build.sh bundle-gpu + split) and build bidex
@@ -8,9 +8,13 @@
 #   bench/gpu_learn_run.sh profile OUTDIR TASKS SLOTS_LIST [UPDATES]
 #       short runs with --profile: slot-steps/s split into physics, task kernels, policy, update
 #       (a TASKS entry naming a suite, MT1, MT4 or MT20, trains multi-task PPO on it)
-#   bench/gpu_learn_run.sh train OUTDIR TASK SLOTS SECONDS TARGET [-o key=value ...]
+#   bench/gpu_learn_run.sh collect OUTDIR TASKS SLOTS [UPDATES]
+#       PPO's collection rate (acting, stepping, copying) against the whole task step alone (bidex
+#       bench warp) on each task's scene at SLOTS worlds, one after the other in one call
+#   bench/gpu_learn_run.sh train OUTDIR TASK SLOTS SECONDS TARGET [--algo A] [-o key=value ...]
 #       trains (or resumes the run of an earlier call) for SECONDS more, then writes the curve and
-#       the wall time and slot-steps at which the mean training return first reached TARGET
+#       the wall time and slot-steps at which the mean training return first reached TARGET;
+#       TASK may name a suite (MT1, MT4, MT20); results go to OUTDIR/TASK-ALGO (ALGO default ppo)
 # Results go to OUTDIR with the machine, date, commit ($BIDEX_COMMIT) and commands. The run
 # folders stay on the machine under /tmp/bidex-gpu-runs. BIDEX_GPU_BUILD: the build folder.
 set -uo pipefail
@@ -18,7 +22,7 @@ cd "$(dirname "$0")/.."
 build=${BIDEX_GPU_BUILD:-build-gpu}
 bidex="$build/apps/bidex"
 runs=/tmp/bidex-gpu-runs
-stage=${1:?stage: build, pack, profile or train}
+stage=${1:?stage: build, pack, profile, collect or train}
 shift
 SECONDS=0
 
@@ -76,31 +80,79 @@ profile)
   done
   echo "profile: ${SECONDS}s"
   ;;
+collect)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; slots=${3:?SLOTS}; updates=${4:-12}
+  mkdir -p "$out" "$runs"
+  for task in ${tasks//,/ }; do
+    sim="$out/collect-$task-$slots-sim.json"
+    "$bidex" bench warp --task "$task" --worlds "$slots" --seconds 3 --rounds 1 \
+      --determinism-steps 0 --out "$sim" >/dev/null 2>&1 || { echo "bench warp $task failed"; exit 1; }
+    run="$runs/collect-$task-$slots-$(date +%s)"
+    args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
+          --stop-after "$updates" --profile)
+    "$bidex" "${args[@]}" >/dev/null 2>&1 || { echo "train $task failed"; exit 1; }
+    cp "$run/profile.json" "$out/collect-$task-$slots-profile.json"
+    python3 - "$out" "$task" "$slots" "$(machine)" "${BIDEX_COMMIT:-unknown}" "bidex ${args[*]}" <<'PY'
+import json, sys, datetime
+out, task, slots, machine, commit, command = sys.argv[1:7]
+sim = json.load(open(f"{out}/collect-{task}-{slots}-sim.json"))["results"][0]
+prof = json.load(open(f"{out}/collect-{task}-{slots}-profile.json"))
+sec = prof["seconds"]
+rollout = sec["simulation"] + sec["policy"]
+collect = prof["slot_steps"] / rollout
+d = {
+  "what": "PPO's collector on the GPU path (policy acting, the pack's step, the copies of the "
+          "rows) against simulation only: the whole task step alone with random inputs (bidex "
+          "bench warp) and the pack's own steps inside the same training run",
+  "machine": machine, "commit": commit,
+  "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+  "commands": [f"bidex bench warp --task {task} --worlds {slots} --seconds 3 --rounds 1 "
+               "--determinism-steps 0", command],
+  "task": task, "slots": int(slots), "updates": prof["updates"],
+  "collect_slot_steps_per_s": collect,
+  "sim_only_slot_steps_per_s": sim["task_slot_steps_per_s"],
+  "in_run_sim_slot_steps_per_s": prof["slot_steps"] / sec["simulation"],
+  "ratio_collect_to_sim_only": collect / sim["task_slot_steps_per_s"],
+  "ratio_collect_to_in_run_sim": sec["simulation"] / rollout,
+  "profile_seconds": sec,
+}
+json.dump(d, open(f"{out}/collect-{task}-{slots}.json", "w"), indent=2)
+print(task, slots, "collect/sim-only", round(d["ratio_collect_to_sim_only"], 3),
+      "collect/in-run sim", round(d["ratio_collect_to_in_run_sim"], 3))
+PY
+  done
+  echo "collect: ${SECONDS}s"
+  ;;
 train)
   out=$(realpath -m "${1:?OUTDIR}"); task=${2:?TASK}; slots=${3:?SLOTS}; budget=${4:?SECONDS}
   target=${5:?TARGET}
   shift 5
-  mkdir -p "$out/$task" "$runs"
-  run="$runs/$task-$slots"
+  algo=ppo
+  for ((i = 1; i < $#; ++i)); do [[ ${!i} == --algo ]] && { j=$((i + 1)); algo=${!j}; }; done
+  name="$task-$algo"
+  mkdir -p "$out/$name" "$runs"
+  run="$runs/$name-$slots"
+  if [[ $task == M[TL]* ]]; then target_args=(--suite "$task"); else target_args=(--task "$task"); fi
   if [[ -f "$run/config.yaml" ]]; then
     args=(train --resume "$run" --device cuda --no-registry --time-limit "$budget")
   else
-    args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
-          --time-limit "$budget" "$@")
+    args=(train "${target_args[@]}" --device cuda -o env.slots="$slots" --run "$run"
+          --no-registry --time-limit "$budget" "$@")
   fi
-  "$bidex" "${args[@]}" 2>"$out/$task/progress.log" | tee -a "$out/$task/train.txt"
-  echo "bidex ${args[*]}" >>"$out/$task/commands.txt"
-  cp "$run"/{config.yaml,run.json,metrics.csv,learning_curve.svg,summary.json} "$out/$task/"
-  python3 - "$out/$task" "$target" "$(machine)" "${BIDEX_COMMIT:-unknown}" <<'PY'
+  "$bidex" "${args[@]}" 2>"$out/$name/progress.log" | tee -a "$out/$name/train.txt"
+  echo "bidex ${args[*]}" >>"$out/$name/commands.txt"
+  cp "$run"/{config.yaml,run.json,metrics.csv,learning_curve.svg,summary.json} "$out/$name/"
+  python3 - "$out/$name" "$target" "$(machine)" "${BIDEX_COMMIT:-unknown}" "$algo" <<'PY'
 import csv, json, sys, datetime
-d, target, machine, commit = sys.argv[1], float(sys.argv[2]), sys.argv[3], sys.argv[4]
+d, target, machine, commit, algo = sys.argv[1], float(sys.argv[2]), sys.argv[3], sys.argv[4], sys.argv[5]
 rows = [r for r in csv.DictReader(open(f"{d}/metrics.csv")) if r["return"] != ""]
 hit = next((r for r in rows if float(r["return"]) >= target), None)
 last = rows[-10:]
 fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
 out = {
-  "what": "PPO with the simulation and the learner on the GPU: mean training return per update, "
-          "and the first update whose mean return reached the target",
+  "what": f"{algo} with the simulation and the learner on the GPU: mean training return per "
+          "update, and the first update whose mean return reached the target",
+  "algo": algo,
   "machine": machine, "commit": commit,
   "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
   "commands": open(f"{d}/commands.txt").read().splitlines(),
@@ -120,7 +172,7 @@ PY
   echo "train: ${SECONDS}s"
   ;;
 *)
-  echo "unknown stage $stage (build, pack, profile or train)" >&2
+  echo "unknown stage $stage (build, pack, profile, collect or train)" >&2
   exit 2
   ;;
 esac
