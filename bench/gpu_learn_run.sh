@@ -90,7 +90,8 @@ collect)
     run="$runs/collect-$task-$slots-$(date +%s)"
     args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
           --stop-after "$updates" --profile)
-    "$bidex" "${args[@]}" >/dev/null 2>&1 || { echo "train $task failed"; exit 1; }
+    "$bidex" "${args[@]}" >"$out/collect-$task-$slots.log" 2>&1  # a stopped run exits non-zero
+    [[ -f "$run/profile.json" ]] || { tail "$out/collect-$task-$slots.log"; exit 1; }
     cp "$run/profile.json" "$out/collect-$task-$slots-profile.json"
     python3 - "$out" "$task" "$slots" "$(machine)" "${BIDEX_COMMIT:-unknown}" "bidex ${args[*]}" <<'PY'
 import json, sys, datetime
