@@ -93,6 +93,10 @@ class Pack {
   // Timing of the steps since set_profile(true): see each pack for what the fields hold.
   virtual void set_profile(bool on) = 0;
   virtual tasks::StageProfile profile() const = 0;
+  // Goal shifts of slots of entry g (tasks::set_goal_shifts: `local` counts from the entry's
+  // first slot), from each slot's next reset; meta-RL samples goals per slot with it.
+  virtual void set_goal_shifts(int g, const std::vector<int>& local,
+                               const std::vector<double>& shifts) = 0;
 
  protected:
   explicit Pack(const PackSpec& spec);
@@ -131,6 +135,10 @@ class TaskPack : public Pack {
   void set_profile(bool on) override;
   // wall: the pack's steps; actions and task: thread-seconds summed over entries
   tasks::StageProfile profile() const override;
+  void set_goal_shifts(int g, const std::vector<int>& local,
+                       const std::vector<double>& shifts) override {
+    envs_.at(g)->set_goal_shifts(local, shifts);
+  }
 
  private:
   void write_row(int g, int local, int slot);  // pack rows of one slot from its entry's env

@@ -67,6 +67,10 @@ class WarpPack : public Pack {
   void set_profile(bool on) override;
   // Summed over entries: wall, actions (apply kernels) and task seconds; physics is the rest.
   tasks::StageProfile profile() const override;
+  void set_goal_shifts(int g, const std::vector<int>& local,
+                       const std::vector<double>& shifts) override {
+    envs_.at(g)->set_goal_shifts(local, shifts);
+  }
 
  private:
   static float* ptr(uintptr_t p) { return reinterpret_cast<float*>(p); }

@@ -78,7 +78,7 @@ BIDEX_HD void catch_reset(const CatchProgram& p, const sim::ResetRows<Real>& r, 
     for (int k = 0; k < 3; ++k) q[k] = static_cast<Real>(x[k]);
     for (int k = 0; k < 4; ++k) q[3 + k] = static_cast<Real>(qo[k]);
     auto& goal = st.goal[i];
-    for (int k = 0; k < 3; ++k) goal[k] = o.goal[k];
+    for (int k = 0; k < 3; ++k) goal[k] = o.goal[k] + st.params.goal_shift[i][k];
     for (int k = 0; k < 4; ++k) goal[3 + k] = qg[k];
     for (int k = 0; k < 3; ++k) r.mocap_pos[3 * o.mocap + k] = static_cast<Real>(goal[k]);
     for (int k = 0; k < 4; ++k) r.mocap_quat[4 * o.mocap + k] = static_cast<Real>(goal[3 + k]);

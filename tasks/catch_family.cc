@@ -27,6 +27,7 @@ TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string o
     add_goal_obs(s.obs, g, "the " + o + "'s goal");
   }
   s.agents = agents_per_hand(s.obs, s.act);
+  s.goal_shifts = nobjects;
   if (nobjects == 1) {
     s.reward_terms.push_back({"pose", "exp(-0.2 (alpha d + theta)): d the object's distance to "
                                       "the goal (m), theta the rotation between them (rad)"});

@@ -96,8 +96,35 @@ void clip_obs(float* o, int n) {
 }
 }  // namespace
 
+void set_goal_shifts(const TaskSpec& spec, SlotState* states, int nslot,
+                     const std::vector<int>& slots, const std::vector<double>& shifts) {
+  const std::string where = "task " + spec.id + ": goal shifts: ";
+  const int k = spec.goal_shifts;
+  if (k == 0) throw Error(where + "the task takes no per-slot goal");
+  if (shifts.size() != slots.size() * static_cast<size_t>(k) * 3)
+    throw Error(where + "expected " + std::to_string(k * 3) + " values per slot (" +
+                std::to_string(slots.size() * k * 3) + " for " + std::to_string(slots.size()) +
+                " slots), got " + std::to_string(shifts.size()));
+  for (size_t i = 0; i < slots.size(); ++i) {
+    if (slots[i] < 0 || slots[i] >= nslot)
+      throw Error(where + "slot " + std::to_string(slots[i]) + " is outside 0.." +
+                  std::to_string(nslot - 1));
+    for (int j = 0; j < k * 3; ++j)
+      if (!std::isfinite(shifts[i * k * 3 + j]))
+        throw Error(where + "slot " + std::to_string(slots[i]) + " has a non-finite value");
+  }
+  for (size_t i = 0; i < slots.size(); ++i)
+    for (int g = 0; g < k; ++g)
+      for (int c = 0; c < 3; ++c)
+        states[slots[i]].params.goal_shift[g][c] = shifts[(i * k + g) * 3 + c];
+}
+
+void TaskEnv::set_goal_shifts(const std::vector<int>& slots, const std::vector<double>& shifts) {
+  tasks::set_goal_shifts(spec(), state_.data(), nslot_, slots, shifts);
+}
+
 void TaskEnv::start_episode(int s) {
-  state_[s] = SlotState{};
+  new_episode(state_[s]);
   ep_return_[s] = 0;
   std::fill_n(ep_terms_.data() + static_cast<size_t>(s) * nterms_, nterms_, 0.0);
   TaskSlot t = slot(s);

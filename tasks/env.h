@@ -50,6 +50,14 @@ struct StageProfile {
 std::unique_ptr<sim::SimModel> build_task_model(Task& task, const std::string& hand_file,
                                                 const std::string& physics_file);
 
+// Per-slot goal shifts (TaskParams::goal_shift) into `states` of `nslot` slots: `shifts` holds,
+// for each slot listed in `slots`, spec.goal_shifts x 3 values (m). They apply from each slot's
+// next reset and stay until set again. Throws Error naming the task, the slot or the sizes when
+// the task takes no per-slot goals, a slot is out of range, the sizes disagree or a value is not
+// finite; then no state has changed.
+void set_goal_shifts(const TaskSpec& spec, SlotState* states, int nslot,
+                     const std::vector<int>& slots, const std::vector<double>& shifts);
+
 // A random policy's actions: every value uniform in [-1, 1], drawn in order from `rng`.
 void random_actions(std::vector<float>& actions, std::mt19937_64& rng);
 
@@ -107,6 +115,8 @@ class TaskEnv {
   EpisodeStats take_stats();
   void set_profile(bool on);
   StageProfile profile() const;
+  // Goal shifts of some slots (tasks::set_goal_shifts above), from their next reset.
+  void set_goal_shifts(const std::vector<int>& slots, const std::vector<double>& shifts);
 
   static constexpr float kObsClip = 5.0f;
 

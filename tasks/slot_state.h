@@ -6,13 +6,24 @@
 #include <array>
 #include <type_traits>
 
+#include "core/hd.h"
+
 namespace bidex::tasks {
 
 constexpr int kMaxActions = 64;
 constexpr int kMaxGoals = 2;
 constexpr int kMaxTerms = 16;
 
+// A slot's task parameters: set from outside (TaskEnv::set_goal_shifts, meta-RL's task
+// sampling) and kept across the slot's episodes, unlike the rest of SlotState. A family reads
+// only what its TaskSpec::goal_shifts says.
+struct TaskParams {
+  // added to each goal's configured position at every reset (m)
+  std::array<std::array<double, 3>, kMaxGoals> goal_shift{};
+};
+
 struct SlotState {
+  TaskParams params;         // kept by new_episode(), see above
   int progress = 0;          // control steps since the reset
   bool success = false;      // the success condition held at some step of this episode
   bool bonus_paid = false;   // the one-off goal bonus of this episode was paid
@@ -22,5 +33,12 @@ struct SlotState {
   std::array<float, kMaxActions> action{};
 };
 static_assert(std::is_trivially_copyable_v<SlotState>, "copied to the device as bytes");
+
+// A new episode's state: everything cleared but the slot's task parameters.
+BIDEX_HD inline void new_episode(SlotState& st) {
+  const TaskParams keep = st.params;
+  st = SlotState{};
+  st.params = keep;
+}
 
 }  // namespace bidex::tasks

@@ -78,6 +78,9 @@ struct TaskSpec {
   // reduced task that learns in CI (never in a suite), or a suite's form of a task
   // (hand_over_free: hand_over with the free bases of the MT4/ML4 suites).
   std::string variant_of;
+  // Goals whose position a slot's task parameters shift (TaskEnv::set_goal_shifts; meta-RL's
+  // goal distributions); 0: the task takes no per-slot goal.
+  int goal_shifts = 0;
 
   std::string versioned_id() const { return id + "-v" + std::to_string(version); }
   int term_index(const std::string& name) const;  // -1 when absent

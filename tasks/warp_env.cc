@@ -178,6 +178,15 @@ void WarpTaskEnv::copy(const std::string& name, void* dst, size_t bytes) const {
   backend_->download_bytes(name, dst, bytes);
 }
 
+void WarpTaskEnv::set_goal_shifts(const std::vector<int>& slots,
+                                  const std::vector<double>& shifts) {
+  synchronize();
+  std::vector<SlotState> st(nslot_);
+  backend_->download_bytes("state", st.data(), st.size() * sizeof(SlotState));
+  tasks::set_goal_shifts(spec(), st.data(), nslot_, slots, shifts);
+  backend_->upload_bytes("state", st.data(), st.size() * sizeof(SlotState));
+}
+
 void WarpTaskEnv::reset() {
   std::vector<int32_t> all(nslot_, 1);
   backend_->upload_bytes("reset", all.data(), all.size() * sizeof(int32_t));

@@ -89,6 +89,9 @@ class WarpTaskEnv {
   // Episodes finished since the last call (copies the per-world records to the host and zeroes
   // them).
   EpisodeStats take_stats();
+  // Goal shifts of some worlds (tasks::set_goal_shifts in env.h), from their next reset: the
+  // per-world states make one round trip to the host (not per step).
+  void set_goal_shifts(const std::vector<int>& slots, const std::vector<double>& shifts);
 
  private:
   void copy(const std::string& name, void* dst, size_t bytes) const;

@@ -143,7 +143,7 @@ BIDEX_HD void world_reset(const typename B::Program& p, const WorldArrays& a, in
   SlotRng& rng = a.rng[w];
   rng.rekey(rng.episode + 1);
   SlotState& st = a.state[w];
-  st = SlotState{};
+  new_episode(st);
   a.ep_return[w] = 0;
   for (int k = 0; k < a.nterms; ++k) a.ep_terms[static_cast<int64_t>(w) * a.nterms + k] = 0;
   B::reset(p, world_reset_rows(a, w), st, rng);

@@ -299,3 +299,57 @@ TEST_CASE("objects do not start inside a hand", "[tasks][reset]") {
     CHECK(deepest > -0.005);
   }
 }
+
+TEST_CASE("per-slot goal shifts move each slot's goal from its next reset, and stay",
+          "[tasks][reset][goals]") {
+  auto env = make_env("catch_underarm", 4, 31, 1);
+  const tasks::Slice* pose = env->spec().obs.find("goal.pose");
+  REQUIRE(pose);
+  REQUIRE(env->spec().goal_shifts == 1);
+  const int od = env->obs_dim();
+  auto goal = [&](int s) {
+    std::vector<double> g;
+    for (int k = 0; k < 3; ++k) g.push_back(env->obs[s * od + pose->start + k]);
+    return g;
+  };
+  const std::vector<double> before = goal(1);
+  // slots 1 and 3 get their own shifts; nothing moves until a reset
+  env->set_goal_shifts({1, 3}, {0.05, -0.02, 0.01, -0.04, 0.0, 0.03});
+  CHECK(goal(1) == before);
+  env->reset();
+  for (int round = 0; round < 2; ++round) {  // and they stay over later episodes
+    CHECK(goal(1)[0] == Approx(before[0] + 0.05).margin(1e-5));
+    CHECK(goal(1)[1] == Approx(before[1] - 0.02).margin(1e-5));
+    CHECK(goal(1)[2] == Approx(before[2] + 0.01).margin(1e-5));
+    CHECK(goal(3)[0] == Approx(before[0] - 0.04).margin(1e-5));
+    CHECK(goal(3)[2] == Approx(before[2] + 0.03).margin(1e-5));
+    CHECK(goal(0) == before);
+    CHECK(goal(2) == before);
+    env->reset();
+  }
+  // bad input names the task and the problem, and changes nothing
+  auto message = [&](const std::vector<int>& slots, const std::vector<double>& v) {
+    try {
+      env->set_goal_shifts(slots, v);
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  CHECK_THAT(message({1}, {0.1, 0.2}), Catch::Contains("catch_underarm") &&
+                                           Catch::Contains("expected 3 values per slot") &&
+                                           Catch::Contains("got 2"));
+  CHECK_THAT(message({0, 4}, std::vector<double>(6, 0.0)),
+             Catch::Contains("slot 4 is outside 0..3"));
+  CHECK_THAT(message({0}, {0.0, NAN, 0.0}), Catch::Contains("non-finite"));
+  env->reset();
+  CHECK(goal(0) == before);
+  auto door = make_env("door_open_outward", 2, 31, 1);
+  try {
+    door->set_goal_shifts({0}, {0, 0, 0});
+    FAIL("accepted");
+  } catch (const Error& e) {
+    CHECK_THAT(e.what(), Catch::Contains("door_open_outward") &&
+                             Catch::Contains("takes no per-slot goal"));
+  }
+}

@@ -65,6 +65,30 @@ TEST_CASE("WarpTaskEnv resets like TaskEnv: same streams, same first observation
   }
 }
 
+TEST_CASE("WarpTaskEnv takes per-slot goal shifts like TaskEnv", "[warp]") {
+  TaskEnv cpu(make_task("two_catch_underarm", ""), cpu_env(3, 5));
+  WarpTaskEnv gpu(make_task("two_catch_underarm", ""), cpu_warp(3, 5));
+  REQUIRE(gpu.spec().goal_shifts == 2);
+  const std::vector<double> shift = {0.1, 0, 0, 0, 0.05, 0, 0, 0, -0.02, 0.03, 0.03, 0.03};
+  cpu.set_goal_shifts({0, 2}, shift);
+  gpu.set_goal_shifts({0, 2}, shift);
+  cpu.reset();
+  gpu.reset();
+  const int od = gpu.obs_dim();
+  const std::vector<float> go = gpu.download<float>("obs");
+  for (const char* name : {"goal1.pose", "goal2.pose"}) {
+    const Slice* sl = gpu.spec().obs.find(name);
+    REQUIRE(sl);
+    for (int w = 0; w < 3; ++w)
+      for (int k = 0; k < 3; ++k)
+        CHECK(go[w * od + sl->start + k] == Approx(cpu.obs[w * od + sl->start + k]).margin(1e-5));
+  }
+  // slot 0's first goal moved 0.1 in x against slot 1's
+  const Slice* g1 = gpu.spec().obs.find("goal1.pose");
+  CHECK(go[g1->start] - go[od + g1->start] == Approx(0.1).margin(1e-5));
+  CHECK_THROWS_AS(gpu.set_goal_shifts({3}, std::vector<double>(6, 0.0)), Error);
+}
+
 TEST_CASE("WarpTaskEnv steps, rewards and finishes episodes like TaskEnv", "[warp]") {
   TaskEnv cpu(make_task("catch_underarm", ""), cpu_env(3, 5));
   WarpTaskEnv gpu(make_task("catch_underarm", ""), cpu_warp(3, 5));
