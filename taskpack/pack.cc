@@ -67,6 +67,13 @@ Pack::Pack(const PackSpec& spec) : spec_(spec) {
     if (!std::isfinite(e.reward_scale) || e.reward_scale < 0)
       throw ConfigError(name, entry_key(g, "reward_scale"), "a finite scale >= 0",
                         std::to_string(e.reward_scale));
+    if (!e.goals.empty() && specs.back()->goal_shifts == 0)
+      throw ConfigError(name, entry_key(g, "goals"), "no goals: task " + e.task +
+                        " takes no per-slot goal", std::to_string(e.goals.size()) + " goals");
+    for (const auto& x : e.goals)
+      for (double v : x)
+        if (!std::isfinite(v))
+          throw ConfigError(name, entry_key(g, "goals"), "finite goal shifts", "a non-finite one");
     if (e.label.empty()) e.label = e.task;  // the spec kept by the pack names every entry
     const std::string& label = e.label;
     for (int h = 0; h < g; ++h)
@@ -139,6 +146,24 @@ int Pack::one_hot_offset() const {
   return spec_.mode == PackMode::kMultiTask ? obs_pad_ : -1;
 }
 
+void Pack::assign_goals() {
+  for (int g = 0; g < ngroups(); ++g) {
+    const PackEntry& e = spec_.entries[g];
+    if (e.goals.empty()) continue;
+    const int k = specs_[g]->goal_shifts;
+    std::vector<int> local(e.slots);
+    std::vector<double> shifts;
+    shifts.reserve(static_cast<size_t>(e.slots) * k * 3);
+    for (int i = 0; i < e.slots; ++i) {
+      local[i] = i;
+      for (int j = 0; j < k; ++j)
+        shifts.insert(shifts.end(), e.goals[i % e.goals.size()].begin(),
+                      e.goals[i % e.goals.size()].end());
+    }
+    set_goal_shifts(g, local, shifts);
+  }
+}
+
 TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : Pack(spec) {
   const int n = ngroups();
   // one env per entry, consecutive slots
@@ -152,6 +177,9 @@ TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : Pack(spec
     o.physics_file = options.physics_file;
     envs_.push_back(std::make_unique<tasks::TaskEnv>(tasks::make_task(e.task, e.config), o));
   }
+  assign_goals();
+  for (int g = 0; g < n; ++g)
+    if (!spec_.entries[g].goals.empty()) envs_[g]->reset();  // the first episodes take them
 
   const size_t ns = static_cast<size_t>(nslot_);
   obs.assign(ns * obs_dim_, 0.f);

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <array>
 #include <string>
 #include <vector>
 
@@ -31,6 +32,9 @@ struct PackEntry {
   std::string config;         // the task's YAML, goal parameters included (empty: its default)
   int slots = 1;
   double reward_scale = 1.0;
+  // Goal shifts (m) of a goal distribution (suite.h): the entry's slots take them in turn, slot
+  // i goals[i % size] (every goal of a two-goal task moves by it); empty: the configured goal.
+  std::vector<std::array<double, 3>> goals;
 };
 
 struct PackSpec {
@@ -97,6 +101,10 @@ class Pack {
   // first slot), from each slot's next reset; meta-RL samples goals per slot with it.
   virtual void set_goal_shifts(int g, const std::vector<int>& local,
                                const std::vector<double>& shifts) = 0;
+
+  // Gives every entry with goals its slots' shifts in turn (PackEntry::goals), from their next
+  // reset; the packs call it once they are built.
+  void assign_goals();
 
  protected:
   explicit Pack(const PackSpec& spec);

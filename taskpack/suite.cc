@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <random>
 
 #include <unistd.h>
 
@@ -12,7 +14,9 @@
 
 namespace bidex::taskpack {
 
-std::vector<std::string> known_suites() { return {"MT1", "ML1", "MT4", "ML4", "MT20", "ML20"}; }
+std::vector<std::string> known_suites() {
+  return {"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals"};
+}
 
 namespace {
 
@@ -34,9 +38,34 @@ std::string join(const std::vector<std::string>& v) {
   return out;
 }
 
-// One entry of a split: {task, label?, config?, reward_scale?}.
-SuiteEntry read_entry(const YamlView& v, const std::string& suite_file) {
-  v.allow_keys({"task", "label", "config", "reward_scale"});
+// Uniform in [-1, 1) from the stream's top 53 bits: the same goals on every platform.
+double uniform_pm1(std::mt19937_64& rng) {
+  return 2.0 * static_cast<double>(rng() >> 11) * 0x1.0p-53 - 1.0;
+}
+
+// An entry's `goals: {count, half_extent}`, drawn from `rng` (the suite's goal stream).
+std::vector<std::array<double, 3>> read_goals(const YamlView& v, const std::string& task,
+                                              std::mt19937_64& rng) {
+  v.allow_keys({"count", "half_extent"});
+  if (tasks::find_task(task).spec().goal_shifts == 0)
+    v.fail("no goals (task " + task + " takes no per-slot goal)", v.repr());
+  const YamlView c = v.child("count");
+  const int count = c.as<int>();
+  if (count < 1) c.fail("a goal count >= 1", c.repr());
+  const YamlView h = v.child("half_extent");
+  const auto half = h.as<std::array<double, 3>>();
+  for (double x : half)
+    if (x < 0) h.fail("3 half extents >= 0 in metres [x, y, z]", h.repr());
+  std::vector<std::array<double, 3>> goals(count);
+  for (auto& g : goals)
+    for (int k = 0; k < 3; ++k) g[k] = half[k] * uniform_pm1(rng);
+  return goals;
+}
+
+// One entry of a split: {task, label?, config?, reward_scale?, goals?}.
+SuiteEntry read_entry(const YamlView& v, const std::string& suite_file,
+                      std::optional<std::mt19937_64>& goal_rng) {
+  v.allow_keys({"task", "label", "config", "reward_scale", "goals"});
   SuiteEntry e;
   {
     const YamlView t = v.child("task");
@@ -63,13 +92,18 @@ SuiteEntry read_entry(const YamlView& v, const std::string& suite_file) {
     e.reward_scale = r->as<double>();  // finite, or a ConfigError
     if (e.reward_scale < 0) r->fail("a reward scale >= 0", r->repr());
   }
+  if (auto g = v.maybe("goals")) {
+    if (!goal_rng) g->fail("a goal_seed at the suite's top level first", "goals without it");
+    e.goals = read_goals(*g, e.task, *goal_rng);
+  }
   return e;
 }
 
-std::vector<SuiteEntry> read_split(const YamlView& v, const std::string& suite_file) {
+std::vector<SuiteEntry> read_split(const YamlView& v, const std::string& suite_file,
+                                   std::optional<std::mt19937_64>& goal_rng) {
   if (!v.is_seq() || v.node().size() == 0) v.fail("a non-empty list of task entries", v.repr());
   std::vector<SuiteEntry> out;
-  for (const auto& it : v.items()) out.push_back(read_entry(it, suite_file));
+  for (const auto& it : v.items()) out.push_back(read_entry(it, suite_file, goal_rng));
   return out;
 }
 
@@ -88,7 +122,7 @@ Suite load_suite(const std::string& id_or_file) {
     file = suites_dir() + "/" + id_or_file + ".yaml";
   }
   const YamlView root = YamlView::load_file(file);
-  root.allow_keys({"id", "description", "mode", "source", "train", "test"});
+  root.allow_keys({"id", "description", "mode", "source", "goal_seed", "train", "test"});
   Suite s;
   s.file = file;
   {
@@ -109,7 +143,14 @@ Suite load_suite(const std::string& id_or_file) {
     else
       v.fail("multitask or meta", v.repr());
   }
-  s.train = read_split(root.child("train"), file);
+  std::optional<std::mt19937_64> goal_rng;
+  if (auto g = root.maybe("goal_seed")) {
+    const int seed = g->as<int>();
+    if (seed < 0) g->fail("a seed >= 0", g->repr());
+    s.goal_seed = static_cast<uint64_t>(seed);
+    goal_rng.emplace(s.goal_seed);
+  }
+  s.train = read_split(root.child("train"), file, goal_rng);
   {
     const YamlView v = root.child("test");
     if (v.node().IsScalar() && v.node().as<std::string>() == "train") {
@@ -119,7 +160,7 @@ Suite load_suite(const std::string& id_or_file) {
       // exactly its train entries
       v.fail("'train' (a multitask suite is tested on its train entries)", v.repr());
     } else {
-      s.test = read_split(v, file);
+      s.test = read_split(v, file, goal_rng);
     }
   }
   // labels are unique within the suite (a test list may not reuse a train label)
@@ -159,6 +200,7 @@ PackSpec suite_pack(const Suite& suite, const std::string& split, int total_slot
     pe.config = e.config;
     pe.slots = total_slots / n + (i < total_slots % n ? 1 : 0);
     pe.reward_scale = e.reward_scale;
+    pe.goals = e.goals;
     p.entries.push_back(pe);
   }
   // one width over both splits: a policy trained on one split runs on the other

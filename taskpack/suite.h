@@ -4,6 +4,8 @@
 // missing fields, unknown tasks and duplicate labels are ConfigErrors naming file and key.
 #pragma once
 
+#include <array>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -16,6 +18,11 @@ struct SuiteEntry {
   std::string label;          // unique within the suite (default: task)
   std::string config;         // task YAML, resolved to a path (empty: the task's default)
   double reward_scale = 1.0;
+  // A goal distribution: `goals: {count: N, half_extent: [x, y, z]}` draws N goal shifts
+  // uniform in the box +-half_extent (m) around the task's goal, from the suite's goal_seed (the
+  // train entries' draws first, then the test entries', so held-out goals are new draws). The
+  // pack's slots take them in turn (PackEntry::goals); empty: the configured goal.
+  std::vector<std::array<double, 3>> goals;
 };
 
 struct Suite {
@@ -26,6 +33,7 @@ struct Suite {
   PackMode mode = PackMode::kMultiTask;
   std::vector<SuiteEntry> train;
   std::vector<SuiteEntry> test;   // multi-task suites: the train entries
+  uint64_t goal_seed = 0;          // the goal distributions' stream (required with `goals`)
 };
 
 // The ids of the suite files under <data dir>/configs/suites, in the paper's order.

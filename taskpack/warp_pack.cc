@@ -41,6 +41,9 @@ WarpPack::WarpPack(const PackSpec& spec, const WarpPackOptions& options)
     envs_.push_back(
         std::make_unique<tasks::WarpTaskEnv>(tasks::make_task(e.task, e.config), o));
   }
+  assign_goals();
+  for (int g = 0; g < ngroups(); ++g)
+    if (!spec_.entries[g].goals.empty()) envs_[g]->reset();  // the first episodes take them
   // the pack's rows live beside entry 0's worlds (one device, one context)
   sim::WarpBackend& home = envs_[0]->backend();
   auto rows = [&](const char* name, int width) {

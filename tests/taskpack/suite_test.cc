@@ -2,6 +2,7 @@
 // splits, modes, reward scales, widths); MT1's goal variants put the goal where stated; bad
 // suite files are ConfigErrors naming the file and the key.
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <string>
 #include <vector>
@@ -11,6 +12,7 @@
 #include <catch2/catch.hpp>
 
 #include "sim/hand_spec.h"
+#include "taskpack/pack.h"
 #include "taskpack/suite.h"
 #include "tasks/catch_family.h"
 #include "tests/tasks/task_fixture.h"
@@ -58,7 +60,8 @@ std::string suites_dir() { return sim::data_dir() + "/configs/suites"; }
 }  // namespace
 
 TEST_CASE("every suite file loads and matches the canonical table", "[taskpack][suite]") {
-  CHECK(taskpack::known_suites() == Names{"MT1", "ML1", "MT4", "ML4", "MT20", "ML20"});
+  CHECK(taskpack::known_suites() ==
+        Names{"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals"});
   std::map<std::string, Suite> s;
   for (const auto& id : taskpack::known_suites()) {
     INFO("suite " << id);
@@ -301,6 +304,25 @@ test:
                                         "{task: catch_underarm, config: goals/none.yaml}"),
        "train[0].config"},
       {"missing description", edit_once(good, "description: a test suite\n", ""), "description"},
+      {"goals without a goal_seed",
+       edit_once(good, "{task: catch_underarm}",
+                 "{task: catch_underarm, goals: {count: 2, half_extent: [0, 0, 0]}}"),
+       "train[0].goals"},
+      {"goals of a task without goals",
+       edit_once(good, "train:\n  - {task: catch_underarm}",
+                 "goal_seed: 1\ntrain:\n  - {task: door_open_outward, goals: "
+                 "{count: 2, half_extent: [0, 0, 0]}}"),
+       "train[0].goals"},
+      {"no goals",
+       edit_once(good, "train:\n  - {task: catch_underarm}",
+                 "goal_seed: 1\ntrain:\n  - {task: catch_underarm, goals: "
+                 "{count: 0, half_extent: [0, 0, 0]}}"),
+       "train[0].goals.count"},
+      {"negative half extent",
+       edit_once(good, "train:\n  - {task: catch_underarm}",
+                 "goal_seed: 1\ntrain:\n  - {task: catch_underarm, goals: "
+                 "{count: 2, half_extent: [0, -1, 0]}}"),
+       "train[0].goals.half_extent"},
   };
   for (const auto& b : bad) {
     INFO(b.what);
@@ -314,4 +336,47 @@ test:
   CHECK(thrown<ConfigError>([] { taskpack::load_suite("MT7"); }).key() == "suite");
   const std::string renamed = dir.write("MT4.yaml", good);
   CHECK(taskpack::load_suite(renamed).id == "X1");  // by path: any id
+}
+
+TEST_CASE("ML1-goals: train and held-out test goals drawn from its seed, given to slots in turn",
+          "[taskpack][suite][goals]") {
+  const Suite s = taskpack::load_suite("ML1-goals");
+  REQUIRE(s.train.size() == 1);
+  REQUIRE(s.test.size() == 1);
+  const auto& train = s.train[0].goals;
+  const auto& test = s.test[0].goals;
+  REQUIRE(train.size() == 40);
+  REQUIRE(test.size() == 10);
+  const double half[3] = {0.05, 0.05, 0.02};
+  for (const auto* list : {&train, &test})
+    for (const auto& g : *list)
+      for (int k = 0; k < 3; ++k) CHECK(std::abs(g[k]) <= half[k]);
+  // the held-out goals are new draws, and the draws fill the box
+  for (const auto& t : test)
+    for (const auto& g : train) CHECK(t != g);
+  double lo = 1, hi = -1;
+  for (const auto& g : train) lo = std::min(lo, g[0]), hi = std::max(hi, g[0]);
+  CHECK(lo < -0.03);
+  CHECK(hi > 0.03);
+  // the same seed gives the same goals
+  CHECK(taskpack::load_suite("ML1-goals").test[0].goals == test);
+
+  // a pack of the test split: slot i's goal is the task's own goal plus test[i % 10], from the
+  // first episode on; goal slices are zeroed in the rows (meta mode)
+  const auto spec = taskpack::suite_pack(s, "test", 12);
+  REQUIRE(spec.entries[0].goals == test);
+  taskpack::PackOptions o;
+  o.threads = 1;
+  o.seed = 4;
+  taskpack::TaskPack pack(spec, o);
+  pack.reset();
+  auto plain = make_env("catch_underarm", 1, 4, 1);
+  const auto base = plain->slot_state(0).goal[0];
+  for (int i = 0; i < 12; ++i) {
+    const auto& goal = pack.group(0).slot_state(i).goal[0];
+    for (int k = 0; k < 3; ++k) CHECK(goal[k] == Approx(base[k] + test[i % 10][k]).margin(1e-12));
+  }
+  const tasks::Slice* pose = pack.group(0).spec().obs.find("goal.pose");
+  REQUIRE(pose);
+  for (int k = 0; k < pose->size; ++k) CHECK(pack.obs[5 * pack.obs_dim() + pose->start + k] == 0);
 }
