@@ -20,6 +20,12 @@ Rollout::Rollout(int64_t T, int64_t N, int64_t D, int64_t A, const torch::Device
   log_std = torch::zeros({A}, f);
 }
 
+torch::Tensor clipped_surrogate(const torch::Tensor& ratio, const torch::Tensor& advantages,
+                                double clip) {
+  auto clipped = torch::clamp(ratio, 1.0 - clip, 1.0 + clip);
+  return -torch::min(ratio * advantages, clipped * advantages).mean();
+}
+
 std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
                                             const torch::Tensor& values,
                                             const torch::Tensor& dones,
@@ -94,8 +100,7 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
       }
       auto adv_mb = advantages.index_select(0, idx);
       auto ratio = torch::exp(logp - logp_old.index_select(0, idx));
-      auto surr = torch::min(ratio * adv_mb, torch::clamp(ratio, 1.0 - c_.clip, 1.0 + c_.clip) * adv_mb);
-      auto policy_loss = -surr.mean();
+      auto policy_loss = clipped_surrogate(ratio, adv_mb, c_.clip);
       auto v = model_->raw_value(o);
       auto tgt = targets.index_select(0, idx);
       torch::Tensor value_loss;

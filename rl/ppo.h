@@ -36,6 +36,11 @@ std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
                                             const torch::Tensor& last_value, double gamma,
                                             double lambda);
 
+// PPO's clipped surrogate as a loss to minimise: -mean(min(r A, clamp(r, 1 - clip, 1 + clip) A))
+// for probability ratios r and advantages A of the same shape.
+torch::Tensor clipped_surrogate(const torch::Tensor& ratio, const torch::Tensor& advantages,
+                                double clip);
+
 struct UpdateStats {
   double policy_loss = 0, value_loss = 0, entropy = 0, kl = 0, lr = 0, clip_fraction = 0;
 };
