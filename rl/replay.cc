@@ -41,7 +41,7 @@ void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions,
 }
 
 void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions,
-                       const Transition& t) {
+                       const Transition& t, double reward_scale) {
   torch::NoGradGuard ng;
   auto next_obs = t.obs;
   auto terminal = t.done;
@@ -49,7 +49,7 @@ void ReplayBuffer::add(const torch::Tensor& obs, const torch::Tensor& actions,
     next_obs = t.obs.index_copy(0, t.final_ids, t.final_obs);
     terminal = t.done.index_fill(0, t.final_ids, 0.f);
   }
-  add(obs, actions, t.reward, next_obs, terminal);
+  add(obs, actions, reward_scale == 1.0 ? t.reward : t.reward * reward_scale, next_obs, terminal);
 }
 
 ReplayBuffer::Batch ReplayBuffer::sample(int64_t n) const {

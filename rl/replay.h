@@ -21,8 +21,10 @@ class ReplayBuffer {
            const torch::Tensor& next_obs, const torch::Tensor& terminal);
   // The step that took `obs` with `actions` to the collector's transition `t`: a slot whose
   // episode ended keeps its last observation as next_obs where the time limit cut it (and is
-  // then not terminal); one that ended otherwise is terminal.
-  void add(const torch::Tensor& obs, const torch::Tensor& actions, const Transition& t);
+  // then not terminal); one that ended otherwise is terminal. Rewards are stored times
+  // `reward_scale`.
+  void add(const torch::Tensor& obs, const torch::Tensor& actions, const Transition& t,
+           double reward_scale = 1.0);
 
   struct Batch {
     torch::Tensor obs, actions, rewards, next_obs, terminal;

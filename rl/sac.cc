@@ -117,13 +117,7 @@ class SacAlgorithm final : public Algorithm {
   }
 
   void observe(const Transition& t) override {
-    if (c_.reward_scale == 1.0) {
-      replay_->add(last_obs_, last_act_, t);
-    } else {
-      Transition scaled = t;
-      scaled.reward = t.reward * c_.reward_scale;
-      replay_->add(last_obs_, last_act_, scaled);
-    }
+    replay_->add(last_obs_, last_act_, t, c_.reward_scale);
   }
 
   std::vector<double> update(const torch::Tensor&) override {
