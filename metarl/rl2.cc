@@ -101,8 +101,9 @@ std::vector<double> Rl2::update(const torch::Tensor& obs) {
                                                   .device(rewards_.device()));
     for (int m = 0; m < c_.minibatches; ++m) {
       const auto idx = perm.slice(0, m * per, (m + 1) * per);
-      auto [mean, value, hs] = policy_->forward_sequence(
-          inputs_.index_select(1, idx), hidden0_.index_select(1, idx), resets_.index_select(1, idx));
+      auto [mean, value, hs] =
+          policy_->forward_sequence(inputs_.index_select(1, idx), hidden0_.index_select(1, idx),
+                                    resets_.index_select(1, idx));
       const auto logp = rl::gaussian_log_prob(actions_.index_select(1, idx), mean,
                                               policy_->log_std());
       const auto ratio = (logp - logp_.index_select(1, idx)).exp();
