@@ -1,5 +1,5 @@
 // rl/td3: TD3's target policy smoothing, clipped double-Q target and delayed actor against
-// hand-worked values; TD3 and DDPG runs that stop, resume from their checkpoints and evaluate;
+// hand-worked values; a bandit's optimum learned; TD3 and DDPG runs that stop, resume from their checkpoints and evaluate;
 // a checkpoint of one loaded as the other is refused; bad settings name their key.
 #include "tests/rl/rl_fixture.h"
 
@@ -130,4 +130,39 @@ TEST_CASE("a TD3 checkpoint is refused by a DDPG run, and bad TD3 settings name 
   }
   // DDPG has no smoothing or delay: those keys are unknown there
   CHECK_THROWS_AS(tiny("ddpg", {"ddpg.policy_delay=2"}), ConfigError);
+}
+
+// Their actor and critic updates together find a known optimum: on a one-step bandit with
+// reward -|a - target|^2 the actor converges to the target (within 0.1 after 500 updates of 16
+// gradient steps; about 3 s each on two cores).
+TEST_CASE("TD3 and DDPG learn a one-step bandit's best action", "[rl][td3]") {
+  for (const char* algo : {"td3", "ddpg"}) {
+    INFO(algo);
+    torch::manual_seed(11);
+    const std::string a = algo;
+    const rl::TrainConfig c = rl::parse_train_config(
+        tiny(algo, {a + ".replay_size=4096", a + ".batch_size=64", a + ".lr=1e-3",
+                    a + ".epochs=4", a + ".minibatches=4", "env.slots=32"}),
+        "tiny");
+    auto alg = rl::make_algorithm(algo, c, 3, 2, 32, torch::Device(torch::kCPU));
+    const auto obs = torch::zeros({32, 3});
+    // reward -(|a - target|^2), every step its own episode (terminal)
+    const auto target = torch::tensor({0.5f, -0.3f});
+    rl::Transition t;
+    t.obs = obs;
+    t.done = torch::ones({32});
+    t.final_ids = torch::empty({0}, torch::kLong);
+    t.final_obs = torch::empty({0, 3});
+    for (int u = 0; u < 500; ++u) {
+      for (int s = 0; s < 2; ++s) {
+        const auto act = alg->act(obs);
+        t.reward = -(act - target).pow(2).sum(1);
+        alg->observe(t);
+      }
+      alg->update(obs);
+    }
+    const auto best = alg->actor(obs.slice(0, 0, 1))[0];
+    INFO("actor " << best);
+    CHECK((best - target).abs().max().item<float>() < 0.1f);
+  }
 }
