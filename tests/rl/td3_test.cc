@@ -1,6 +1,7 @@
 // rl/td3: TD3's target policy smoothing, clipped double-Q target and delayed actor against
-// hand-worked values; a bandit's optimum learned; TD3 and DDPG runs that stop, resume from their checkpoints and evaluate;
-// a checkpoint of one loaded as the other is refused; bad settings name their key.
+// hand-worked values; a bandit's optimum learned; TD3 and DDPG runs that stop, resume from their
+// checkpoints and evaluate; a checkpoint of one loaded as the other is refused; bad settings
+// name their key.
 #include "tests/rl/rl_fixture.h"
 
 #include <cmath>
