@@ -110,6 +110,19 @@ torch::Tensor ActorCriticImpl::value(const torch::Tensor& nobs) {
   return use_value_norm_ ? value_norm_->denormalize(v) : v;
 }
 
+QCriticImpl::QCriticImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
+                         const std::string& activation, bool twin) {
+  q1 = register_module("q1", mlp(obs_dim + act_dim, hidden, 1, activation, 1.0));
+  if (twin) q2 = register_module("q2", mlp(obs_dim + act_dim, hidden, 1, activation, 1.0));
+}
+
+std::pair<torch::Tensor, torch::Tensor> QCriticImpl::forward(const torch::Tensor& obs,
+                                                             const torch::Tensor& actions) {
+  const auto x = torch::cat({obs, actions}, 1);
+  auto v1 = q1->forward(x).squeeze(1);
+  return {v1, q2 ? q2->forward(x).squeeze(1) : v1};
+}
+
 void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep) {
   torch::NoGradGuard ng;
   auto s = src.parameters();

@@ -44,6 +44,18 @@ torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t ou
 // Target networks: dst = keep x dst + (1 - keep) x src, parameter by parameter (keep = 0 copies).
 void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep);
 
+// Q(s, a) on the observation and action side by side: two critics (`q1`, `q2`) for SAC's and
+// TD3's clipped double Q, or one (`twin` false, DDPG), whose value forward() then gives twice.
+struct QCriticImpl : torch::nn::Module {
+  QCriticImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
+              const std::string& activation, bool twin);
+  // (q1, q2), each [n]
+  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
+                                                  const torch::Tensor& actions);
+  torch::nn::Sequential q1{nullptr}, q2{nullptr};
+};
+TORCH_MODULE(QCritic);
+
 class ActorCriticImpl : public torch::nn::Module {
  public:
   ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& config);

@@ -21,7 +21,8 @@ torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& ter
 torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
                            const torch::Tensor& q1_next, const torch::Tensor& q2_next,
                            const torch::Tensor& logp_next, double alpha, double gamma) {
-  return reward + gamma * (1 - terminal) * (torch::min(q1_next, q2_next) - alpha * logp_next);
+  return sac_q_target(reward, terminal, q1_next, q2_next, logp_next,
+                      torch::scalar_tensor(alpha, logp_next.options()), gamma);
 }
 
 torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks) {
@@ -65,20 +66,6 @@ struct SacActorImpl : torch::nn::Module {
 };
 TORCH_MODULE(SacActor);
 
-struct SacCriticImpl : torch::nn::Module {
-  SacCriticImpl(int64_t D, int64_t A, const SacConfig& c) {
-    q1 = register_module("q1", mlp(D + A, c.hidden, 1, c.activation, 1.0));
-    q2 = register_module("q2", mlp(D + A, c.hidden, 1, c.activation, 1.0));
-  }
-  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
-                                                  const torch::Tensor& a) {
-    auto x = torch::cat({obs, a}, 1);
-    return {q1->forward(x).squeeze(1), q2->forward(x).squeeze(1)};
-  }
-  torch::nn::Sequential q1{nullptr}, q2{nullptr};
-};
-TORCH_MODULE(SacCritic);
-
 class SacAlgorithm final : public Algorithm {
  public:
   // ntasks > 0: one temperature per task, read from the last ntasks columns (the one-hot id)
@@ -87,8 +74,8 @@ class SacAlgorithm final : public Algorithm {
       : c_(config.sac),
         ntasks_(ntasks),
         actor_(D, A, config.sac),
-        critic_(D, A, config.sac),
-        target_(D, A, config.sac),
+        critic_(D, A, config.sac.hidden, config.sac.activation, true),
+        target_(D, A, config.sac.hidden, config.sac.activation, true),
         target_entropy_(-static_cast<double>(A)) {
     actor_->to(device);
     critic_->to(device);
@@ -218,7 +205,7 @@ class SacAlgorithm final : public Algorithm {
   SacConfig c_;
   int64_t ntasks_;
   SacActor actor_;
-  SacCritic critic_, target_;
+  QCritic critic_, target_;
   torch::Tensor log_alpha_;
   double target_entropy_;
   std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_, alpha_opt_;

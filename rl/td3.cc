@@ -28,23 +28,6 @@ struct Td3ActorImpl : torch::nn::Module {
 };
 TORCH_MODULE(Td3Actor);
 
-// One or two critics on (observation, action).
-struct Td3CriticImpl : torch::nn::Module {
-  Td3CriticImpl(int64_t D, int64_t A, const Td3Config& c) {
-    q1 = register_module("q1", mlp(D + A, c.hidden, 1, c.activation, 1.0));
-    if (c.twin) q2 = register_module("q2", mlp(D + A, c.hidden, 1, c.activation, 1.0));
-  }
-  // (q1, q2); q2 is q1 with one critic
-  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
-                                                  const torch::Tensor& a) {
-    auto x = torch::cat({obs, a}, 1);
-    auto v1 = q1->forward(x).squeeze(1);
-    return {v1, q2 ? q2->forward(x).squeeze(1) : v1};
-  }
-  torch::nn::Sequential q1{nullptr}, q2{nullptr};
-};
-TORCH_MODULE(Td3Critic);
-
 class Td3Algorithm final : public Algorithm {
  public:
   Td3Algorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
@@ -52,8 +35,8 @@ class Td3Algorithm final : public Algorithm {
       : c_(config.td3),
         actor_(D, A, config.td3),
         actor_target_(D, A, config.td3),
-        critic_(D, A, config.td3),
-        critic_target_(D, A, config.td3) {
+        critic_(D, A, config.td3.hidden, config.td3.activation, config.td3.twin),
+        critic_target_(D, A, config.td3.hidden, config.td3.activation, config.td3.twin) {
     for (torch::nn::Module* m : std::initializer_list<torch::nn::Module*>{
              actor_.get(), actor_target_.get(), critic_.get(), critic_target_.get()})
       m->to(device);
@@ -171,7 +154,7 @@ class Td3Algorithm final : public Algorithm {
  private:
   Td3Config c_;
   Td3Actor actor_, actor_target_;
-  Td3Critic critic_, critic_target_;
+  QCritic critic_, critic_target_;
   std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_;
   std::unique_ptr<ReplayBuffer> replay_;
   torch::Tensor steps_;  // gradient steps so far (the policy delay's phase; checkpointed)

@@ -179,7 +179,8 @@ struct Session {
   void build(uint64_t env_seed, const std::string& requested_sim_device) {
     device = pick_device(cfg, name);
     if (cfg.torch_threads > 0) torch::set_num_threads(cfg.torch_threads);
-    if (device.is_cuda()) at::globalContext().setFloat32MatmulPrecision(cfg.tf32 ? "high" : "highest");
+    if (device.is_cuda())
+      at::globalContext().setFloat32MatmulPrecision(cfg.tf32 ? "high" : "highest");
     torch::manual_seed(cfg.seed);
     const taskpack::PackSpec spec = run_pack(cfg, cfg.slots);
     sim_device = choose_sim_device(requested_sim_device, spec, &sim_why);
