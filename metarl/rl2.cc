@@ -29,6 +29,7 @@ Rl2::Rl2(int64_t obs_dim, int64_t act_dim, int64_t nslot, const Rl2Config& confi
   new_trial_ = torch::zeros({N}, f);
   inputs_ = torch::zeros({T, N, policy_->input_dim()}, f);
   actions_ = torch::zeros({T, N, A}, f);
+  means_ = torch::zeros({T, N, A}, f);
   logp_ = torch::zeros({T, N}, f);
   values_ = torch::zeros({T, N}, f);
   rewards_ = torch::zeros({T, N}, f);
@@ -52,6 +53,7 @@ torch::Tensor Rl2::act(const torch::Tensor& obs) {
   const auto a = mean + policy_->log_std().exp() * torch::randn_like(mean);
   inputs_[t_] = input;
   actions_[t_] = a;
+  means_[t_] = mean;
   logp_[t_] = rl::gaussian_log_prob(a, mean, policy_->log_std());
   values_[t_] = value;
   hidden_ = h;
@@ -87,11 +89,6 @@ std::vector<double> Rl2::update(const torch::Tensor& obs) {
   auto [adv, ret] = rl::gae(rewards_, values_, cuts_, last_value, c_.gamma, c_.lambda);
   adv = (adv - adv.mean()) / (adv.std() + 1e-8);
   const auto log_std_old = policy_->log_std().detach().clone();
-  torch::Tensor mean_old;
-  {
-    torch::NoGradGuard ng;
-    mean_old = std::get<0>(policy_->forward_sequence(inputs_, hidden0_, resets_));
-  }
   const int64_t per = nslot_ / c_.minibatches;
   auto sums = torch::zeros({4}, torch::TensorOptions().dtype(torch::kFloat64)
                                     .device(rewards_.device()));
@@ -101,9 +98,11 @@ std::vector<double> Rl2::update(const torch::Tensor& obs) {
                                                   .device(rewards_.device()));
     for (int m = 0; m < c_.minibatches; ++m) {
       const auto idx = perm.slice(0, m * per, (m + 1) * per);
-      auto [mean, value, hs] =
+      const auto out =
           policy_->forward_sequence(inputs_.index_select(1, idx), hidden0_.index_select(1, idx),
                                     resets_.index_select(1, idx));
+      const auto& mean = std::get<0>(out);
+      const auto& value = std::get<1>(out);
       const auto logp = rl::gaussian_log_prob(actions_.index_select(1, idx), mean,
                                               policy_->log_std());
       const auto ratio = (logp - logp_.index_select(1, idx)).exp();
@@ -117,7 +116,7 @@ std::vector<double> Rl2::update(const torch::Tensor& obs) {
       torch::nn::utils::clip_grad_norm_(policy_->parameters(), c_.max_grad_norm);
       opt_->step();
       torch::NoGradGuard ng;
-      const auto kl = rl::gaussian_kl(mean_old.index_select(1, idx), log_std_old, mean,
+      const auto kl = rl::gaussian_kl(means_.index_select(1, idx), log_std_old, mean,
                                       policy_->log_std())
                           .mean();
       sums += torch::stack({policy_loss.detach(), value_loss.detach(), entropy.detach(), kl})

@@ -59,9 +59,10 @@ class Rl2 {
   std::unique_ptr<torch::optim::Adam> opt_;
   // acting state, per slot
   torch::Tensor hidden_, prev_action_, prev_reward_, prev_done_, episodes_, new_trial_;
-  // the rollout, [T, N, ...]: inputs, actions, their log-probabilities and the values, rewards,
-  // trial ends after each step, trial starts before each step; the memory before step 0
-  torch::Tensor inputs_, actions_, logp_, values_, rewards_, cuts_, resets_, hidden0_;
+  // the rollout, [T, N, ...]: inputs, actions, the policy's means (for the KL metric), their
+  // log-probabilities and the values, rewards, trial ends after each step, trial starts before
+  // each step; the memory before step 0
+  torch::Tensor inputs_, actions_, means_, logp_, values_, rewards_, cuts_, resets_, hidden0_;
   int t_ = 0;
 };
 
