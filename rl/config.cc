@@ -248,13 +248,14 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     const bool td3 = info.section == "td3";
     auto p = v.child(info.section);
     std::vector<std::string> keys = replay_keys;
-    keys.insert(keys.end(), {"epochs", "act_noise"});
+    keys.insert(keys.end(), {"epochs", "act_noise", "preact_l2"});
     if (td3) keys.insert(keys.end(), {"target_noise", "noise_clip", "policy_delay"});
     p.allow_keys(keys);
     auto& o = c.td3;
     replay_common(p, o);
     o.epochs = positive(p, "epochs", 1);
     o.act_noise = real(p, "act_noise", 0, 10, false);
+    o.preact_l2 = real(p, "preact_l2", 0, 1e3, false);
     o.twin = td3;
     if (td3) {
       o.target_noise = real(p, "target_noise", 0, 10, false);

@@ -78,6 +78,8 @@ struct Td3Config {
   double max_grad_norm = 1.0;
   double reward_scale = 1.0;
   double act_noise = 0.1;     // exploration: Gaussian noise of this std on the actor's action
+  double preact_l2 = 0.0;     // actor loss + this x mean squared pre-tanh action (keeps the
+                              // actor off tanh's flat ends; 0: the paper's plain actor loss)
   // TD3 only
   bool twin = true;           // two critics, the minimum in the target
   double target_noise = 0.2;  // target policy smoothing: noise std ...

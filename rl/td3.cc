@@ -17,6 +17,12 @@ torch::Tensor td3_q_target(const torch::Tensor& reward, const torch::Tensor& ter
   return reward + gamma * (1 - terminal) * torch::min(q1_next, q2_next);
 }
 
+torch::Tensor td3_actor_loss(const torch::Tensor& q, const torch::Tensor& preact,
+                             double preact_l2) {
+  auto loss = -q.mean();
+  return preact_l2 > 0 ? loss + preact_l2 * preact.pow(2).mean() : loss;
+}
+
 namespace {
 
 struct Td3ActorImpl : torch::nn::Module {
@@ -24,6 +30,7 @@ struct Td3ActorImpl : torch::nn::Module {
     net = register_module("net", mlp(D, c.hidden, A, c.activation, 0.01));
   }
   torch::Tensor forward(const torch::Tensor& obs) { return torch::tanh(net->forward(obs)); }
+  torch::Tensor preactivation(const torch::Tensor& obs) { return net->forward(obs); }
   torch::nn::Sequential net{nullptr};
 };
 TORCH_MODULE(Td3Actor);
@@ -69,7 +76,9 @@ class Td3Algorithm final : public Algorithm {
 
   std::vector<double> update(const torch::Tensor&) override {
     const auto dev = critic_->q1->parameters()[0].device();
+    // q_loss, actor_loss, q_mean per critic step; the actor's saturated share per actor step
     auto sums = torch::zeros({3}, torch::TensorOptions().dtype(torch::kFloat64).device(dev));
+    auto saturated = torch::zeros({}, sums.options());
     int64_t step = steps_.item<int64_t>();
     int actor_steps = 0;
     const int n = c_.epochs * c_.minibatches;
@@ -92,7 +101,10 @@ class Td3Algorithm final : public Algorithm {
       critic_opt_->step();
       torch::Tensor actor_loss = torch::zeros({}, q_loss.options());
       if (td3_actor_step(step, c_.policy_delay)) {
-        actor_loss = -critic_->forward(b.obs, actor_->forward(b.obs)).first.mean();
+        auto pre = actor_->preactivation(b.obs);
+        auto mu_b = torch::tanh(pre);
+        actor_loss = td3_actor_loss(critic_->forward(b.obs, mu_b).first, pre, c_.preact_l2);
+        saturated += mu_b.detach().abs().gt(0.99).to(torch::kFloat64).mean();
         actor_opt_->zero_grad();
         actor_loss.backward();
         torch::nn::utils::clip_grad_norm_(actor_->parameters(), c_.max_grad_norm);
@@ -107,13 +119,14 @@ class Td3Algorithm final : public Algorithm {
     }
     steps_.fill_(step);
     auto m = (sums / n).to(torch::kCPU);
-    return {m[0].item<double>(), actor_steps ? m[1].item<double>() * n / actor_steps : 0.0,
-            m[2].item<double>(), static_cast<double>(actor_steps)};
+    const double per_actor_step = actor_steps ? 1.0 / actor_steps : 0.0;
+    return {m[0].item<double>(), m[1].item<double>() * n * per_actor_step, m[2].item<double>(),
+            static_cast<double>(actor_steps), saturated.item<double>() * per_actor_step};
   }
 
   const std::vector<std::string>& metric_names() const override {
     static const std::vector<std::string> names = {"q_loss", "actor_loss", "q_mean",
-                                                   "actor_steps"};
+                                                   "actor_steps", "saturated"};
     return names;
   }
 

@@ -5,6 +5,10 @@
 // critic (the minimum of the two in the target), target policy smoothing (clipped noise on the
 // target action) and a delayed actor: the actor and the targets move every `policy_delay`
 // critic steps. DDPG is the same class with one critic, no smoothing and no delay.
+// Optionally (preact_l2 > 0) the actor's loss also penalises its squared pre-tanh output, as
+// Andrychowicz et al. 2017 (hindsight experience replay) do against tanh saturation: without it,
+// on catch_underarm_raise every action component sits at +-1 within a few updates, where tanh's
+// gradient vanishes, and the policy stays there (the metric `saturated` shows it).
 #pragma once
 
 #include <memory>
@@ -23,6 +27,10 @@ torch::Tensor td3_target_action(const torch::Tensor& mu_next, const torch::Tenso
 torch::Tensor td3_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
                            const torch::Tensor& q1_next, const torch::Tensor& q2_next,
                            double gamma);
+// The actor's loss: -mean(q) + preact_l2 x mean(preact^2), q [B] the first critic's value of
+// the actor's action tanh(preact) [B, A].
+torch::Tensor td3_actor_loss(const torch::Tensor& q, const torch::Tensor& preact,
+                             double preact_l2);
 // Whether gradient step `step` (counted from 0 over the run) moves the actor and the targets.
 inline bool td3_actor_step(int64_t step, int policy_delay) {
   return (step + 1) % policy_delay == 0;
