@@ -1,5 +1,6 @@
-// bidex registry list | add-task | scores | reference | report age: the SQLite registry of tasks
-// ordered by human age, training runs and reference scores (registry/README.md).
+// bidex registry list | add-task | scores | evals | reference | report age: the SQLite registry
+// of tasks ordered by human age, training runs, meta-RL evaluations and reference scores
+// (registry/README.md).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -90,6 +91,46 @@ void print_run(const Registry& reg, const registry::RunRecord& r) {
                 s.task.c_str(), num(s.mean_return).c_str(), num(s.success, "%.3f").c_str(),
                 static_cast<long long>(s.episodes),
                 num(reg.normalised(s.task, s.mean_return), "%.3f").c_str());
+}
+
+// One meta-RL evaluation: what was evaluated, then per task its return and success before and
+// after adaptation and its normalised score after, then the mean of those normalised scores.
+void print_evaluation(const Registry& reg, const registry::Evaluation& e) {
+  const auto run = reg.run(e.run_id);
+  std::string what = "?";
+  if (run) {
+    what = run->algo;
+    what.append(", ").append(run->task.empty() ? "suite " + run->suite : run->task);
+  }
+  std::printf("evaluation %lld  run %lld (%s)  split %s  %s  seed %llu  %s\n",
+              static_cast<long long>(e.id), static_cast<long long>(e.run_id), what.c_str(),
+              e.split.c_str(), registry::adaptation_text(e).c_str(),
+              static_cast<unsigned long long>(e.seed), e.time.c_str());
+  if (!e.checkpoint.empty()) std::printf("  checkpoint %s\n", e.checkpoint.c_str());
+  if (e.scores.empty()) return;
+  size_t w = 5;
+  for (auto& s : e.scores) w = std::max(w, s.label.size());
+  std::printf("  %-*s  %-20s %22s  %24s %9s %11s\n", static_cast<int>(w), "label", "task",
+              "return before -> after", "success before -> after", "episodes", "normalised");
+  double sum = 0;
+  int normalised = 0;
+  for (auto& s : e.scores) {
+    const auto n = reg.normalised(s.task, s.return_after);
+    if (n) {
+      sum += *n;
+      ++normalised;
+    }
+    std::printf("  %-*s  %-20s %9s -> %-9s  %10s -> %-10s %9lld %11s\n", static_cast<int>(w),
+                s.label.c_str(), s.task.c_str(), num(s.return_before).c_str(),
+                num(s.return_after).c_str(), num(s.success_before, "%.3f").c_str(),
+                num(s.success_after, "%.3f").c_str(), static_cast<long long>(s.episodes),
+                num(n, "%.3f").c_str());
+  }
+  if (normalised > 0)
+    std::printf("  mean normalised score after adaptation: %.3f (%d of %zu tasks)\n",
+                sum / normalised, normalised, e.scores.size());
+  else
+    std::printf("  mean normalised score after adaptation: - (no task has both references)\n");
 }
 
 }  // namespace
@@ -186,6 +227,35 @@ void add_registry_command(CLI::App& app) {
     });
   }
 
+  // evals
+  {
+    struct Opts {
+      std::string registry;
+      int64_t run = 0;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = reg->add_subcommand(
+        "evals", "Recorded meta-RL evaluations (bidex eval --run DIR --split train|test): per "
+                 "task the return and success before and after adaptation, the normalised score "
+                 "after it and their mean");
+    add_registry_option(cmd, o->registry);
+    auto* run = cmd->add_option("--run", o->run, "Only evaluations of this run (id)");
+    cmd->footer("Examples:\n  bidex registry evals\n  bidex registry evals --run 12");
+    cmd->callback([o, run] {
+      if (run->count() > 0 && o->run < 1)
+        throw Error(std::string("registry evals: --run takes a run id >= 1, not ")
+                        .append(std::to_string(o->run)));
+      Registry r(registry_path(o->registry));
+      if (run->count() > 0 && !r.run(o->run))
+        throw Error(r.path() + ": no run with id " + std::to_string(o->run) +
+                    " (bidex registry scores)");
+      const auto evals = r.evaluations(o->run);
+      for (auto& e : evals) print_evaluation(r, e);
+      std::printf("%zu evaluation%s in %s\n", evals.size(), evals.size() == 1 ? "" : "s",
+                  r.path().c_str());
+    });
+  }
+
   // reference
   {
     struct Opts {
@@ -230,7 +300,7 @@ void add_registry_command(CLI::App& app) {
     report->require_subcommand(1);
     struct Opts {
       std::string registry, suite, out;
-      int64_t run = 0;
+      int64_t run = 0, eval = 0;
     };
     auto o = std::make_shared<Opts>();
     auto* cmd = report->add_subcommand(
@@ -239,16 +309,26 @@ void add_registry_command(CLI::App& app) {
     add_registry_option(cmd, o->registry);
     cmd->add_option("--suite", o->suite, "Scores of the latest scored run of this suite");
     cmd->add_option("--run", o->run, "Scores of this run (id, see bidex registry scores)");
+    auto* eval = cmd->add_option(
+        "--eval", o->eval,
+        "Scores after adaptation of this meta-RL evaluation (id, see bidex registry evals)");
     cmd->add_option("--out", o->out, "SVG file (default: age_report.svg beside the registry)");
     cmd->footer(
-        "Without --suite or --run, each task's score is that of the latest run that scored it.\n"
-        "Example:\n  bidex registry report age --out age_report.svg");
-    cmd->callback([o] {
-      if (!o->suite.empty() && o->run != 0)
-        throw Error("registry report age: give --suite or --run, not both");
+        "Without --suite, --run or --eval, each task's score is that of the latest run that "
+        "scored it.\n"
+        "Examples:\n  bidex registry report age --out age_report.svg\n"
+        "  bidex registry report age --eval 3 --out eval3_age.svg");
+    cmd->callback([o, eval] {
+      const bool by_eval = eval->count() > 0;
+      if ((!o->suite.empty()) + (o->run != 0) + by_eval > 1)
+        throw Error("registry report age: give one of --suite, --run and --eval, not several");
       if (o->run < 0) throw Error("registry report age: --run takes a run id >= 1");
+      if (by_eval && o->eval < 1)
+        throw Error(std::string("registry report age: --eval takes an evaluation id >= 1, not ")
+                        .append(std::to_string(o->eval)));
       Registry r(registry_path(o->registry));
-      const registry::AgeReport rep = registry::age_report(r, o->suite, o->run);
+      const registry::AgeReport rep = by_eval ? registry::age_report_evaluation(r, o->eval)
+                                              : registry::age_report(r, o->suite, o->run);
       std::fputs(registry::age_table(rep).c_str(), stdout);
       const auto left_out = registry::unplotted(rep);
       if (!left_out.empty()) {

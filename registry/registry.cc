@@ -33,6 +33,8 @@ using sql::WriteTxn;
 // sources.
 // Version 2: where each task fact comes from (task_sources), suites and their members, runs of
 // suites (runs.suite), per-task scores of a run (run_scores), the source of each reference score.
+// Version 3: meta-RL evaluations of runs (evaluations) with each task's return and success before
+// and after adaptation (evaluation_scores).
 const char* const kMigrations[] = {
     // 0 -> 1
     R"sql(
@@ -113,6 +115,32 @@ CREATE TABLE run_scores (
   PRIMARY KEY (run, label)
 );
 CREATE INDEX run_scores_task ON run_scores(task);
+)sql",
+    // 2 -> 3
+    R"sql(
+CREATE TABLE evaluations (
+  id INTEGER PRIMARY KEY AUTOINCREMENT,
+  run INTEGER NOT NULL REFERENCES runs(id),
+  split TEXT NOT NULL CHECK (split IN ('train', 'test')),
+  adapt_episodes INTEGER NOT NULL,
+  adapt_steps INTEGER NOT NULL,
+  seed INTEGER NOT NULL,
+  checkpoint TEXT NOT NULL DEFAULT '',
+  time TEXT NOT NULL
+);
+CREATE INDEX evaluations_run ON evaluations(run);
+CREATE TABLE evaluation_scores (
+  evaluation INTEGER NOT NULL REFERENCES evaluations(id),
+  label TEXT NOT NULL,
+  task TEXT NOT NULL,
+  return_before REAL NOT NULL,
+  return_after REAL NOT NULL,
+  success_before REAL,
+  success_after REAL,
+  episodes INTEGER NOT NULL DEFAULT 0,
+  position INTEGER NOT NULL,
+  PRIMARY KEY (evaluation, label)
+);
 )sql",
 };
 constexpr int kVersion = static_cast<int>(sizeof kMigrations / sizeof *kMigrations);
@@ -316,6 +344,36 @@ RunRecord read_run(const Stmt& st) {
   r.final_success = st.opt(14);
   return r;
 }
+
+const char* const kEvaluationColumns =
+    "SELECT id, run, split, adapt_episodes, adapt_steps, seed, checkpoint, time "
+    "FROM evaluations ";
+Evaluation read_evaluation(const Stmt& st) {
+  Evaluation e;
+  e.id = st.i64(0);
+  e.run_id = st.i64(1);
+  e.split = st.text(2);
+  e.adapt_episodes = st.i32(3);
+  e.adapt_steps = st.i32(4);
+  e.seed = static_cast<uint64_t>(st.i64(5));  // stored as the signed 64-bit pattern
+  e.checkpoint = st.text(6);
+  e.time = st.text(7);
+  return e;
+}
+
+// Appends the evaluation's scores, in the order add_evaluation got them.
+void read_evaluation_scores(sqlite3* db, const std::string& path, Evaluation& e) {
+  Stmt st(db, path,
+          "SELECT task, label, return_before, return_after, success_before, success_after, "
+          "episodes FROM evaluation_scores WHERE evaluation = ?1 ORDER BY position");
+  st.bind(1, e.id);
+  while (st.step())
+    e.scores.push_back({st.text(0), st.text(1), st.dbl(2), st.dbl(3), st.opt(4), st.opt(5),
+                        st.i64(6)});
+}
+
+// The label a score is stored under: its label, else its task id.
+const std::string& label_of(const AdaptScore& s) { return s.label.empty() ? s.task : s.label; }
 
 void check_task_record(const TaskRecord& t) {
   std::string what;
@@ -660,6 +718,92 @@ std::vector<TaskScore> Registry::scores(int64_t run_id) const {
   st.bind(1, run_id);
   while (st.step()) out.push_back({st.text(0), st.text(1), st.dbl(2), st.opt(3), st.i64(4)});
   return out;
+}
+
+std::optional<RunRecord> Registry::run_by_dir(const std::string& run_dir) const {
+  std::string q = kRunColumns;
+  q.append("WHERE run_dir = ?1 ORDER BY id DESC LIMIT 1");
+  Stmt st(db_, path_, q.c_str());
+  st.bind(1, run_dir);
+  if (!st.step()) return std::nullopt;
+  return read_run(st);
+}
+
+int64_t Registry::add_evaluation(const Evaluation& e) {
+  const auto fail = [&](const std::string& what) {
+    throw Error(sql::cat(path_, ": evaluation of run ", std::to_string(e.run_id), ": ", what));
+  };
+  if (e.split != "train" && e.split != "test")
+    fail(sql::cat("split ", in_quotes(e.split), " is not train or test"));
+  if (e.adapt_episodes < 0 || e.adapt_steps < 0)
+    fail(sql::cat("adaptation episodes ", std::to_string(e.adapt_episodes), " and steps ",
+                  std::to_string(e.adapt_steps), " (expected >= 0)"));
+  for (size_t i = 0; i < e.scores.size(); ++i) {
+    const AdaptScore& s = e.scores[i];
+    if (s.task.empty()) fail(sql::cat("score ", std::to_string(i + 1), " has no task"));
+    if (!std::isfinite(s.return_before) || !std::isfinite(s.return_after))
+      fail(sql::cat("the return of ", in_quotes(label_of(s)), " is not a finite number"));
+    for (size_t j = 0; j < i; ++j)
+      if (label_of(s) == label_of(e.scores[j]))
+        fail(sql::cat("two scores with the label ", in_quotes(label_of(s))));
+  }
+  WriteTxn txn(db_, path_);
+  {
+    Stmt known(db_, path_, "SELECT 1 FROM runs WHERE id = ?1");
+    known.bind(1, e.run_id);
+    if (!known.step())
+      throw Error(sql::cat(path_, ": no run with id ", std::to_string(e.run_id),
+                           " to record an evaluation of (bidex registry scores)"));
+  }
+  Stmt st(db_, path_,
+          "INSERT INTO evaluations (run, split, adapt_episodes, adapt_steps, seed, checkpoint, "
+          "time) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7)");
+  st.bind(1, e.run_id).bind(2, e.split).bind(3, e.adapt_episodes).bind(4, e.adapt_steps);
+  st.bind(5, static_cast<int64_t>(e.seed)).bind(6, e.checkpoint);
+  st.bind(7, e.time.empty() ? utc_now() : e.time);
+  st.run();
+  const int64_t id = sqlite3_last_insert_rowid(db_);
+  Stmt ins(db_, path_,
+           "INSERT INTO evaluation_scores (evaluation, label, task, return_before, return_after, "
+           "success_before, success_after, episodes, position) "
+           "VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9)");
+  int pos = 0;
+  for (auto& s : e.scores) {
+    ins.bind(1, id).bind(2, label_of(s)).bind(3, s.task).bind(4, s.return_before);
+    ins.bind(5, s.return_after).bind(6, s.success_before).bind(7, s.success_after);
+    ins.bind(8, s.episodes).bind(9, pos++);
+    ins.run();
+    ins.reset();
+  }
+  txn.commit();
+  return id;
+}
+
+std::vector<Evaluation> Registry::evaluations(int64_t run_id) const {
+  std::string q = kEvaluationColumns;
+  q.append(run_id != 0 ? "WHERE run = ?1 ORDER BY id" : "ORDER BY id");
+  std::vector<Evaluation> out;
+  {
+    Stmt st(db_, path_, q.c_str());
+    if (run_id != 0) st.bind(1, run_id);
+    while (st.step()) out.push_back(read_evaluation(st));
+  }
+  for (auto& e : out) read_evaluation_scores(db_, path_, e);
+  return out;
+}
+
+std::optional<Evaluation> Registry::evaluation(int64_t id) const {
+  std::string q = kEvaluationColumns;
+  q.append("WHERE id = ?1");
+  Evaluation e;
+  {
+    Stmt st(db_, path_, q.c_str());
+    st.bind(1, id);
+    if (!st.step()) return std::nullopt;
+    e = read_evaluation(st);
+  }
+  read_evaluation_scores(db_, path_, e);
+  return e;
 }
 
 void Registry::set_reference(const Reference& r) {

@@ -72,6 +72,28 @@ struct TaskScore {
   int64_t episodes = 0;
 };
 
+// One task's scores in a meta-RL evaluation: before adaptation (the first episode of each slot,
+// the pre-adaptation policy) and after it.
+struct AdaptScore {
+  std::string task;                   // task id
+  std::string label;                  // the suite member's label (empty: the task id)
+  double return_before = 0, return_after = 0;
+  std::optional<double> success_before, success_after;
+  int64_t episodes = 0;               // evaluation slots of this task
+};
+
+// A meta-RL evaluation of a run on one split of its suite (`bidex eval --run DIR --split ...`).
+struct Evaluation {
+  int64_t id = 0;                     // assigned by add_evaluation
+  int64_t run_id = 0;                 // the evaluated run (runs.id); must exist
+  std::string split;                  // train | test
+  int adapt_episodes = 0, adapt_steps = 0;
+  uint64_t seed = 0;
+  std::string checkpoint;             // the checkpoint file evaluated
+  std::string time;                   // UTC ISO-8601; empty: now
+  std::vector<AdaptScore> scores;
+};
+
 struct Reference {
   std::string task;
   std::string kind;                   // random | ground_truth
@@ -107,6 +129,18 @@ class Registry {
   std::vector<RunRecord> runs() const;          // by id
   std::optional<RunRecord> run(int64_t id) const;
   std::vector<TaskScore> scores(int64_t run_id) const;  // in the order finish_run got them
+  // The newest run (highest id) whose run_dir is exactly `run_dir`.
+  std::optional<RunRecord> run_by_dir(const std::string& run_dir) const;
+
+  // Records a meta-RL evaluation with its scores in one transaction and returns its id. An
+  // unknown run_id, a split other than train or test, negative adaptation counts, a non-finite
+  // return or two scores with one label (an empty label is the task id) are an Error naming the
+  // value; nothing is written then. An empty `time` becomes the current UTC time.
+  int64_t add_evaluation(const Evaluation& e);
+  // All evaluations (run_id 0) or those of one run, by id, each with its scores in the order
+  // add_evaluation got them.
+  std::vector<Evaluation> evaluations(int64_t run_id = 0) const;
+  std::optional<Evaluation> evaluation(int64_t id) const;
 
   void set_reference(const Reference& r);  // insert or replace (task, kind)
   std::vector<Reference> references() const;    // by task, then kind

@@ -44,15 +44,25 @@ void set_score(const Registry& reg, AgeRow& row, int64_t run, const TaskScore& s
   row.normalised = reg.normalised(row.task, s.mean_return);
 }
 
-// Rows of one run's scores.
-std::vector<AgeRow> run_rows(const Registry& reg, const RunRecord& run) {
+// Rows of scores that come from run `run`.
+std::vector<AgeRow> score_rows(const Registry& reg, int64_t run,
+                               const std::vector<TaskScore>& scores) {
   std::vector<AgeRow> rows;
-  for (auto& s : effective_scores(reg, run)) {
+  for (auto& s : scores) {
     AgeRow row = blank_row(reg, s.task, s.label);
-    set_score(reg, row, run.id, s);
+    set_score(reg, row, run, s);
     rows.push_back(std::move(row));
   }
   return rows;
+}
+
+// Rows of one run's scores.
+std::vector<AgeRow> run_rows(const Registry& reg, const RunRecord& run) {
+  return score_rows(reg, run.id, effective_scores(reg, run));
+}
+
+std::string counted(int n, const char* one, const char* many) {
+  return sql::cat(std::to_string(n), " ", n == 1 ? one : many);
 }
 
 // Age order; tasks the registry does not know (variants) last.
@@ -124,6 +134,33 @@ AgeReport age_report(const Registry& reg, const std::string& suite, int64_t run)
     }
     rep.source = "the latest scored run of each task";
   }
+  sort_by_age(rep.rows);
+  return rep;
+}
+
+std::string adaptation_text(const Evaluation& e) {
+  return sql::cat("after ", counted(e.adapt_episodes, "adaptation episode", "adaptation episodes"),
+                  " and ", counted(e.adapt_steps, "gradient step", "gradient steps"));
+}
+
+AgeReport age_report_evaluation(const Registry& reg, int64_t evaluation_id) {
+  const auto e = reg.evaluation(evaluation_id);
+  if (!e)
+    throw Error(sql::cat(reg.path(), ": no evaluation with id ", std::to_string(evaluation_id),
+                         " (bidex registry evals)"));
+  if (e->scores.empty())
+    throw Error(sql::cat(reg.path(), ": evaluation ", std::to_string(evaluation_id),
+                         " recorded no scores"));
+  std::vector<TaskScore> after;
+  for (auto& s : e->scores)
+    after.push_back({s.task, s.label, s.return_after, s.success_after, s.episodes});
+  AgeReport rep;
+  rep.rows = score_rows(reg, e->run_id, after);
+  const auto run = reg.run(e->run_id);  // always there: add_evaluation checks it
+  const std::string what =
+      run ? sql::cat(run->algo, " on ", run->task.empty() ? run->suite : run->task) : "?";
+  rep.source = sql::cat("evaluation ", std::to_string(e->id), " of run ", std::to_string(e->run_id),
+                        " (", what, ", split ", e->split, ", ", adaptation_text(*e), ")");
   sort_by_age(rep.rows);
   return rep;
 }

@@ -36,6 +36,15 @@ struct AgeReport {
 // none has). An unknown run, or a suite without a scored run, is an Error.
 AgeReport age_report(const Registry& reg, const std::string& suite = "", int64_t run = 0);
 
+// The after-adaptation scores of meta-RL evaluation `evaluation_id` (Registry::add_evaluation):
+// each task's return_after and success_after as its return and success, normalised with the
+// registry's references like a run's; each row's run is the evaluated run. An unknown id, or an
+// evaluation without scores, is an Error naming it.
+AgeReport age_report_evaluation(const Registry& reg, int64_t evaluation_id);
+
+// "after 1 adaptation episode and 2 gradient steps"
+std::string adaptation_text(const Evaluation& e);
+
 // The table as text (one line per row; "-" for a missing value).
 std::string age_table(const AgeReport& report);
 // The ids of the rows without a normalised score (left out of the plot).

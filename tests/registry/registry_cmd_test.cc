@@ -1,5 +1,5 @@
-// apps/cmd_registry: `bidex registry list | add-task | scores | reference | report age`, run as
-// the real binary on temp registries.
+// apps/cmd_registry: `bidex registry list | add-task | scores | evals | reference | report age`,
+// run as the real binary on temp registries.
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -328,8 +328,109 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   CHECK(reg_run("report age --suite MT4 --run 7", path).rc == 2);
 }
 
+TEST_CASE("bidex registry evals and report age --eval: scores before and after adaptation",
+          "[registry][apps]") {
+  RegTempDir dir;
+  GroundTruthOnly references(dir);  // the random scores are set here
+  const std::string path = dir.file("r.sqlite");
+  int64_t run = 0, other = 0;
+  {
+    Registry reg(path);
+    reg.set_reference({"catch_underarm", "random", 1.8, "test"});  // ground truth 17.8
+    reg.set_reference({"catch_abreast", "random", 3.4, "test"});   // ground truth 43.4
+    registry::RunRecord r;
+    r.algo = "promp";
+    r.suite = "ML4";
+    r.run_dir = "runs/ml4";
+    run = reg.begin_run(r);
+    r.algo = "maml";
+    other = reg.begin_run(r);
+    registry::Evaluation e;
+    e.run_id = run;
+    e.split = "train";
+    e.adapt_episodes = 1;
+    e.adapt_steps = 1;
+    e.seed = 9;
+    e.checkpoint = "runs/ml4/checkpoint.pt";
+    e.time = "2026-03-04T05:06:07Z";
+    e.scores = {{"catch_underarm", "", 1.0, 9.8, 0.0, 0.25, 16},
+                {"hand_over_free", "hand_over", 4.0, 12.0, std::nullopt, std::nullopt, 16},
+                {"catch_abreast", "", 5.0, 33.4, 0.125, 0.5, 8}};
+    reg.add_evaluation(e);
+    e.run_id = other;
+    e.split = "test";
+    e.adapt_episodes = 2;
+    e.adapt_steps = 3;
+    e.checkpoint.clear();
+    e.scores = {{"two_catch_underarm", "", 0.5, 1.5, 0.0, 0.0, 4}};
+    reg.add_evaluation(e);
+  }
+  CommandResult r = reg_run("evals", path);
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "evaluation 1  run 1 (promp, suite ML4)  split train  after 1 adaptation "
+                        "episode and 1 gradient step  seed 9  2026-03-04T05:06:07Z"));
+  CHECK(has_text(r.out, "checkpoint runs/ml4/checkpoint.pt"));
+  CHECK(has_row(r.out, {"label", "task", "return", "before", "->", "after", "success", "before",
+                        "->", "after", "episodes", "normalised"}));
+  // label, task, return before -> after, success before -> after, episodes, normalised after:
+  // (9.8 - 1.8) / 16 = 0.5, (33.4 - 3.4) / 40 = 0.75, by hand
+  CHECK(has_row(r.out, {"catch_underarm", "catch_underarm", "1", "->", "9.8", "0.000", "->",
+                        "0.250", "16", "0.500"}));
+  CHECK(has_row(r.out, {"hand_over", "hand_over_free", "4", "->", "12", "-", "->", "-", "16",
+                        "-"}));
+  CHECK(has_row(r.out, {"catch_abreast", "catch_abreast", "5", "->", "33.4", "0.125", "->",
+                        "0.500", "8", "0.750"}));
+  CHECK(has_text(r.out, "mean normalised score after adaptation: 0.625 (2 of 3 tasks)"));
+  CHECK(has_text(r.out, "evaluation 2  run 2 (maml, suite ML4)  split test  after 2 adaptation "
+                        "episodes and 3 gradient steps"));
+  // two_catch_underarm has a ground truth but no random score here
+  CHECK(has_text(r.out, "mean normalised score after adaptation: - (no task has both "
+                        "references)"));
+  CHECK(has_text(r.out, "2 evaluations in"));
+  r = reg_run("evals --run " + std::to_string(other), path);
+  REQUIRE(r.rc == 0);
+  CHECK_FALSE(has_text(r.out, "evaluation 1 "));
+  CHECK(has_text(r.out, "evaluation 2 "));
+  CHECK(has_text(r.out, "1 evaluation in"));
+  r = reg_run("evals --run 99", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "no run with id 99"));
+  CHECK(reg_run("evals --run 0", path).rc == 2);
+
+  // the age report of evaluation 1: its after-adaptation returns, to a chosen file
+  const std::string out = dir.file("eval.svg");
+  r = reg_run("report age --eval 1 --out " + q(out), path);
+  REQUIRE(r.rc == 0);
+  CHECK(has_text(r.out, "scores of evaluation 1 of run 1 (promp on ML4, split train, after 1 "
+                        "adaptation episode and 1 gradient step)"));
+  // task, age, difficulty, run, return, random, ground truth, normalised
+  CHECK(has_row(r.out, {"catch_abreast", "9-10", "easy", "1", "33.4", "3.4", "43.4", "0.750"}));
+  CHECK(has_row(r.out, {"catch_underarm", "48", "hard", "1", "9.8", "1.8", "17.8", "0.500"}));
+  CHECK(has_row(r.out, {"hand_over", "?", "?", "1", "12", "-", "-", "-"}));
+  check_order(r.out, {"catch_abreast", "catch_underarm", "hand_over"});
+  CHECK(has_text(r.out, "left out of the plot (no normalised score): hand_over"));
+  CHECK(has_text(r.out, "plot (2 of 3 tasks)"));
+  REQUIRE(file_exists(out));
+  const std::string svg = read_file(out);
+  CHECK(has_text(svg, ">catch_abreast<"));
+  CHECK(has_text(svg, ">catch_underarm<"));
+  CHECK(has_text(svg, "evaluation 1 of run 1"));
+  // bad choices: exit 2 with a message
+  r = reg_run("report age --eval 5", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "no evaluation with id 5"));
+  r = reg_run("report age --eval 1 --run 1", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "give one of --suite, --run and --eval, not several"));
+  CHECK(reg_run("report age --eval 1 --suite ML4", path).rc == 2);
+  r = reg_run("report age --eval 0", path);
+  CHECK(r.rc == 2);
+  CHECK(has_text(r.out, "--eval takes an evaluation id >= 1"));
+}
+
 TEST_CASE("every bidex registry command has --help naming --registry", "[registry][apps]") {
-  for (const char* c : {"list", "add-task", "scores", "reference", "report age"}) {
+  for (const char* c : {"list", "add-task", "scores", "evals", "reference", "report age"}) {
     INFO(c);
     CommandResult r = bidex_run(std::string("registry ").append(c).append(" --help"));
     CHECK(r.rc == 0);
@@ -337,7 +438,8 @@ TEST_CASE("every bidex registry command has --help naming --registry", "[registr
   }
   CommandResult r = bidex_run("registry --help");
   CHECK(r.rc == 0);
-  for (const char* c : {"list", "add-task", "scores", "reference", "report"}) CHECK(has_text(r.out, c));
+  for (const char* c : {"list", "add-task", "scores", "evals", "reference", "report"})
+    CHECK(has_text(r.out, c));
 }
 
 TEST_CASE("a registry file that is not SQLite: exit 2 naming it", "[registry][apps]") {

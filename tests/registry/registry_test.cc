@@ -1,6 +1,7 @@
 // registry/: creating a registry (schema version, WAL mode, the built-in tasks in age order with
-// their sources, the reference scores), migrating a version-1 file, refusing newer and
-// non-SQLite files, runs and scores, normalised scores, two processes writing at once.
+// their sources, the reference scores), migrating version-1 and version-2 files, refusing newer
+// and non-SQLite files, runs and scores, meta-RL evaluations, normalised scores, the age report,
+// two processes writing at once.
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -156,8 +157,8 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   }
   // read back without bidex
   RawDb raw(path);
-  CHECK(registry::schema_version() == 2);
-  CHECK(raw.value("PRAGMA user_version") == "2");
+  CHECK(registry::schema_version() == 3);
+  CHECK(raw.value("PRAGMA user_version") == "3");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
@@ -362,7 +363,8 @@ TEST_CASE("adding a task: registered in age order; a duplicate or impossible one
   CHECK(reg.tasks(false).size() == 21);
 }
 
-TEST_CASE("a version-1 file with data is migrated to version 2, its data kept", "[registry]") {
+TEST_CASE("a version-1 file with data is migrated to the current version, its data kept",
+          "[registry]") {
   RegTempDir dir;
   const std::string path = dir.file("old.sqlite");
   {
@@ -432,9 +434,10 @@ TEST_CASE("a version-1 file with data is migrated to version 2, its data kept", 
     CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (30.8 - 1.5)));
   }
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "2");
+  CHECK(raw.value("PRAGMA user_version") == "3");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
-  for (const char* table : {"task_sources", "suites", "suite_members", "run_scores"}) {
+  for (const char* table : {"task_sources", "suites", "suite_members", "run_scores", "evaluations",
+                            "evaluation_scores"}) {
     INFO(table);
     CHECK(raw.value(std::string("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
                                 "name = '").append(table).append("'")) == "1");
@@ -444,7 +447,7 @@ TEST_CASE("a version-1 file with data is migrated to version 2, its data kept", 
 TEST_CASE("the migration steps run in order and every one is needed", "[registry]") {
   CHECK_THROWS_AS(registry::migration_sql(0), Error);
   CHECK_THROWS_AS(registry::migration_sql(registry::schema_version() + 1), Error);
-  // a new file runs every step: its schema equals version 1's followed by step 2's
+  // a new file runs every step: its schema equals version 1's followed by steps 2 and 3
   RegTempDir dir;
   { Registry reg(dir.file("new.sqlite")); }
   {
@@ -454,8 +457,8 @@ TEST_CASE("the migration steps run in order and every one is needed", "[registry
   RawDb a(dir.file("new.sqlite")), b(dir.file("by_hand.sqlite"));
   const std::string q = "SELECT sql FROM sqlite_master WHERE sql IS NOT NULL ORDER BY name";
   CHECK(a.column(q) == b.column(q));
-  // 7 tables, sqlite_sequence (of AUTOINCREMENT) and 3 indices
-  CHECK(a.column(q).size() == 11);
+  // 9 tables, sqlite_sequence (of AUTOINCREMENT) and 4 indices
+  CHECK(a.column(q).size() == 14);
 }
 
 TEST_CASE("a registry of a newer schema version is refused and left untouched", "[registry]") {
@@ -463,16 +466,16 @@ TEST_CASE("a registry of a newer schema version is refused and left untouched", 
   const std::string path = dir.file("future.sqlite");
   {
     RawDb raw(path);
-    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 3");
+    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 4");
   }
   const std::string before = read_file(path);
   const std::string msg = error_of([&] { Registry reg(path); });
   CHECK_THAT(msg, Catch::Contains(path));
-  CHECK_THAT(msg, Catch::Contains("schema version 3 is newer"));
-  CHECK_THAT(msg, Catch::Contains("(2)"));
+  CHECK_THAT(msg, Catch::Contains("schema version 4 is newer"));
+  CHECK_THAT(msg, Catch::Contains("(3)"));
   CHECK(read_file(path) == before);
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "3");
+  CHECK(raw.value("PRAGMA user_version") == "4");
 }
 
 TEST_CASE("a file that is not an SQLite registry is refused, naming it", "[registry]") {
@@ -639,4 +642,284 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   CHECK_THAT(svg, Catch::Contains("left out, no normalised score: push_block, pen"));
   CHECK_THROWS_AS(registry::age_report(reg, "", 999), Error);
   CHECK_THROWS_AS(registry::age_report(reg, "MT4"), Error);
+}
+
+namespace {
+
+// A finished run of suite ML4 (algorithm promp) in run folder `dir`; returns its id.
+int64_t meta_run(Registry& reg, const std::string& dir) {
+  registry::RunRecord r;
+  r.algo = "promp";
+  r.suite = "ML4";
+  r.seed = 1;
+  r.run_dir = dir;
+  const int64_t id = reg.begin_run(r);
+  reg.finish_run(id, r, {});
+  return id;
+}
+
+// An evaluation of ML4's train split: the three members, hand_over under its label.
+registry::Evaluation ml4_train_evaluation(int64_t run) {
+  registry::Evaluation e;
+  e.run_id = run;
+  e.split = "train";
+  e.adapt_episodes = 1;
+  e.adapt_steps = 1;
+  e.seed = std::numeric_limits<uint64_t>::max();  // stored as the signed 64-bit pattern
+  e.checkpoint = "runs/ml4/checkpoint.pt";
+  e.time = "2026-03-04T05:06:07Z";
+  e.scores = {{"catch_underarm", "catch_underarm", 1.0, 9.8, 0.0, 0.25, 16},
+              {"hand_over_free", "hand_over", 4.0, 12.0, std::nullopt, std::nullopt, 16},
+              {"catch_abreast", "", 5.0, 33.4, 0.125, 0.5, 8}};
+  return e;
+}
+
+}  // namespace
+
+TEST_CASE("meta-RL evaluations round-trip, by run and by id; runs are found by their folder",
+          "[registry]") {
+  RegTempDir dir;
+  Registry reg(dir.file("r.sqlite"));
+  const int64_t first = meta_run(reg, "runs/ml4");
+  const int64_t other = meta_run(reg, "runs/other");
+  const int64_t again = meta_run(reg, "runs/ml4");  // the same folder trained again
+
+  // run_by_dir: the newest run of the folder, exactly
+  REQUIRE(reg.run_by_dir("runs/ml4"));
+  CHECK(reg.run_by_dir("runs/ml4")->id == again);
+  CHECK(reg.run_by_dir("runs/other")->id == other);
+  CHECK(reg.run_by_dir("runs/other")->suite == "ML4");
+  CHECK_FALSE(reg.run_by_dir("runs/ml"));
+  CHECK_FALSE(reg.run_by_dir("runs/ml4/"));
+  CHECK_FALSE(reg.run_by_dir(""));
+
+  CHECK(reg.evaluations().empty());
+  const int64_t e1 = reg.add_evaluation(ml4_train_evaluation(first));
+  registry::Evaluation test_split;
+  test_split.run_id = again;
+  test_split.split = "test";
+  test_split.adapt_episodes = 3;
+  test_split.adapt_steps = 0;
+  test_split.scores = {{"two_catch_underarm", "", -1.5, 7.1, 0.0, 1.0, 4}};
+  const int64_t e2 = reg.add_evaluation(test_split);
+  const int64_t e3 = reg.add_evaluation(ml4_train_evaluation(first));
+  CHECK(e1 >= 1);
+  CHECK(e2 > e1);
+  CHECK(e3 > e2);
+
+  const auto all = reg.evaluations();
+  REQUIRE(all.size() == 3);
+  CHECK(all[0].id == e1);
+  CHECK(all[1].id == e2);
+  CHECK(all[2].id == e3);
+  const auto& a = all[0];
+  CHECK(a.run_id == first);
+  CHECK(a.split == "train");
+  CHECK(a.adapt_episodes == 1);
+  CHECK(a.adapt_steps == 1);
+  CHECK(a.seed == std::numeric_limits<uint64_t>::max());
+  CHECK(a.checkpoint == "runs/ml4/checkpoint.pt");
+  CHECK(a.time == "2026-03-04T05:06:07Z");
+  REQUIRE(a.scores.size() == 3);  // in insertion order, not by task or label
+  CHECK(a.scores[0].task == "catch_underarm");
+  CHECK(a.scores[0].return_before == 1.0);
+  CHECK(a.scores[0].return_after == 9.8);
+  CHECK(a.scores[0].success_before == 0.0);
+  CHECK(a.scores[0].success_after == 0.25);
+  CHECK(a.scores[0].episodes == 16);
+  CHECK(a.scores[1].task == "hand_over_free");
+  CHECK(a.scores[1].label == "hand_over");
+  CHECK_FALSE(a.scores[1].success_before);
+  CHECK_FALSE(a.scores[1].success_after);
+  CHECK(a.scores[2].label == "catch_abreast");  // an empty label is the task id
+  CHECK(a.scores[2].success_before == 0.125);
+
+  // an empty time is now; by run; by id
+  const auto b = reg.evaluation(e2);
+  REQUIRE(b);
+  CHECK(b->time.size() == 20);  // 2026-11-22T15:00:00Z
+  CHECK(b->time.back() == 'Z');
+  CHECK(b->split == "test");
+  CHECK(b->adapt_episodes == 3);
+  CHECK(b->adapt_steps == 0);
+  CHECK(b->checkpoint.empty());
+  REQUIRE(b->scores.size() == 1);
+  CHECK(b->scores[0].return_before == -1.5);
+  CHECK(b->scores[0].success_after == 1.0);
+  const auto of_first = reg.evaluations(first);
+  REQUIRE(of_first.size() == 2);
+  CHECK(of_first[0].id == e1);
+  CHECK(of_first[1].id == e3);
+  CHECK(of_first[1].scores.size() == 3);
+  CHECK(reg.evaluations(again).size() == 1);
+  CHECK(reg.evaluations(other).empty());
+  CHECK(reg.evaluations(9999).empty());
+  CHECK_FALSE(reg.evaluation(9999));
+  CHECK_FALSE(reg.evaluation(0));
+  // the runs themselves are untouched
+  CHECK(reg.runs().size() == 3);
+  CHECK(reg.scores(first).empty());
+}
+
+TEST_CASE("an evaluation of an unknown run, of a bad split or with bad scores is refused, "
+          "naming the value, and nothing is written", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite");
+  Registry reg(path);
+  const int64_t run = meta_run(reg, "runs/ml4");
+  const int64_t kept = reg.add_evaluation(ml4_train_evaluation(run));
+
+  registry::Evaluation e = ml4_train_evaluation(run + 41);
+  std::string msg = error_of([&] { reg.add_evaluation(e); });
+  CHECK_THAT(msg, Catch::Contains(path));
+  CHECK_THAT(msg, Catch::Contains("no run with id " + std::to_string(run + 41)));
+
+  e = ml4_train_evaluation(run);
+  e.split = "validation";
+  msg = error_of([&] { reg.add_evaluation(e); });
+  CHECK_THAT(msg, Catch::Contains("split 'validation' is not train or test"));
+  e.split = "";
+  CHECK_THAT(error_of([&] { reg.add_evaluation(e); }), Catch::Contains("split ''"));
+
+  e = ml4_train_evaluation(run);
+  e.scores.push_back({"pen", "hand_over", 1, 2, 0, 0, 1});  // hand_over twice
+  CHECK_THAT(error_of([&] { reg.add_evaluation(e); }),
+             Catch::Contains("two scores with the label 'hand_over'"));
+  e = ml4_train_evaluation(run);
+  e.scores[2].return_after = NAN;
+  CHECK_THAT(error_of([&] { reg.add_evaluation(e); }),
+             Catch::Contains("the return of 'catch_abreast' is not a finite number"));
+  e = ml4_train_evaluation(run);
+  e.adapt_steps = -1;
+  CHECK_THAT(error_of([&] { reg.add_evaluation(e); }), Catch::Contains("steps -1"));
+
+  // nothing half-written: the one good evaluation and its three scores only
+  REQUIRE(reg.evaluations().size() == 1);
+  CHECK(reg.evaluations()[0].id == kept);
+  RawDb raw(path);
+  CHECK(raw.value("SELECT count(*) FROM evaluations") == "1");
+  CHECK(raw.value("SELECT count(*) FROM evaluation_scores") == "3");
+  // a later good one still gets the next id
+  CHECK(reg.add_evaluation(ml4_train_evaluation(run)) == kept + 1);
+}
+
+TEST_CASE("a version-2 file with runs is migrated to version 3: runs kept, evaluations added",
+          "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("v2.sqlite");
+  {
+    RawDb raw(path);
+    raw.exec(registry::migration_sql(1));
+    raw.exec(registry::migration_sql(2));
+    raw.exec("PRAGMA user_version = 2");
+    // a version-2 registry: a suite run with per-task scores and a task run
+    raw.exec(
+        "INSERT INTO tasks VALUES ('catch_underarm', 1, 'Catch Underarm', "
+        "'ShadowHandCatchUnderarm', 48, 48, '48', 'hard', 'catch', 417, 52, 'builtin');"
+        "INSERT INTO runs (algo, task, suite, seed, steps, run_dir, started, finished, status, "
+        "final_return) VALUES ('promp', '', 'ML4', 5, 2000, 'runs/ml4', '2026-02-01T00:00:00Z', "
+        "'2026-02-01T02:00:00Z', 'finished', 11.5);"
+        "INSERT INTO run_scores VALUES (1, 'catch_underarm', 'catch_underarm', 11.5, 0.5, 20, 0);"
+        "INSERT INTO runs (algo, task, seed, started, status) VALUES ('ppo', 'catch_underarm', 6, "
+        "'2026-02-02T00:00:00Z', 'running');");
+    CHECK(raw.value("SELECT count(*) FROM sqlite_master WHERE name = 'evaluations'") == "0");
+  }
+  {
+    Registry reg(path);
+    const auto runs = reg.runs();
+    REQUIRE(runs.size() == 2);
+    CHECK(runs[0].id == 1);
+    CHECK(runs[0].suite == "ML4");
+    CHECK(runs[0].seed == 5);
+    CHECK(runs[0].steps == 2000);
+    CHECK(runs[0].final_return == 11.5);
+    CHECK(runs[0].finished == "2026-02-01T02:00:00Z");
+    CHECK(runs[1].status == "running");
+    REQUIRE(reg.scores(1).size() == 1);
+    CHECK(reg.scores(1)[0].success == 0.5);
+    CHECK(reg.run_by_dir("runs/ml4")->id == 1);
+    // the new tables work for the old run, and new runs go on from the old ids
+    CHECK(reg.evaluations().empty());
+    const int64_t e = reg.add_evaluation(ml4_train_evaluation(1));
+    CHECK(e == 1);
+    CHECK(reg.evaluation(e)->scores.size() == 3);
+    registry::RunRecord r;
+    r.algo = "ppo";
+    r.task = "pen";
+    CHECK(reg.begin_run(r) == 3);
+  }
+  RawDb raw(path);
+  CHECK(raw.value("PRAGMA user_version") == "3");
+  for (const char* table : {"evaluations", "evaluation_scores"}) {
+    INFO(table);
+    CHECK(raw.value(std::string("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
+                                "name = '").append(table).append("'")) == "1");
+  }
+  CHECK(raw.value("SELECT count(*) FROM sqlite_master WHERE type = 'index' AND "
+                  "name = 'evaluations_run'") == "1");
+  // evaluation_scores.evaluation is a foreign key to evaluations
+  CHECK(raw.value("SELECT \"table\" FROM pragma_foreign_key_list('evaluation_scores')") ==
+        "evaluations");
+}
+
+TEST_CASE("the age report of an evaluation: the scores after adaptation, normalised like a run's",
+          "[registry]") {
+  RegTempDir dir;
+  GroundTruthOnly references(dir);  // the random scores are set here
+  Registry reg(dir.file("r.sqlite"));
+  reg.set_reference({"catch_underarm", "random", 1.8, "test"});     // ground truth 17.8
+  reg.set_reference({"catch_abreast", "random", 3.4, "test"});      // ground truth 43.4
+  reg.set_reference({"two_catch_underarm", "random", 0.1, "test"}); // ground truth 14.1
+  meta_run(reg, "runs/other");  // run 1: ids of runs and evaluations differ
+  const int64_t run = meta_run(reg, "runs/ml4");
+  const int64_t id = reg.add_evaluation(ml4_train_evaluation(run));
+
+  const auto rep = registry::age_report_evaluation(reg, id);
+  CHECK(rep.source == "evaluation 1 of run 2 (promp on ML4, split train, after 1 adaptation "
+                      "episode and 1 gradient step)");
+  // by age: catch_abreast (9-10), catch_underarm (48), then hand_over_free (not registered)
+  REQUIRE(rep.rows.size() == 3);
+  CHECK(rep.rows[0].label == "catch_abreast");
+  CHECK(rep.rows[1].label == "catch_underarm");
+  CHECK(rep.rows[2].label == "hand_over");
+  CHECK(rep.rows[2].task == "hand_over_free");
+  CHECK_FALSE(rep.rows[2].registered);
+  for (auto& r : rep.rows) CHECK(r.run == run);
+  // after adaptation, by hand: (33.4 - 3.4) / (43.4 - 3.4) = 0.75; (9.8 - 1.8) / 16 = 0.5
+  CHECK(*rep.rows[0].mean_return == 33.4);
+  CHECK(*rep.rows[0].success == 0.5);
+  CHECK(*rep.rows[0].random == Approx(3.4));
+  CHECK(*rep.rows[0].ground_truth == Approx(43.4));
+  CHECK(*rep.rows[0].normalised == Approx(0.75));
+  CHECK(rep.rows[0].age_text == "9-10");
+  CHECK(*rep.rows[1].mean_return == 9.8);
+  CHECK(*rep.rows[1].success == 0.25);
+  CHECK(*rep.rows[1].normalised == Approx(0.5));
+  CHECK(*rep.rows[2].mean_return == 12.0);
+  CHECK_FALSE(rep.rows[2].success);
+  CHECK_FALSE(rep.rows[2].normalised);
+  CHECK(registry::unplotted(rep) == std::vector<std::string>{"hand_over"});
+
+  // the test split, adapted in memory only (0 gradient steps): (7.1 - 0.1) / 14 = 0.5
+  registry::Evaluation t;
+  t.run_id = run;
+  t.split = "test";
+  t.adapt_episodes = 2;
+  t.scores = {{"two_catch_underarm", "", -3.0, 7.1, 0.0, 1.0, 4}};
+  const auto rt = registry::age_report_evaluation(reg, reg.add_evaluation(t));
+  CHECK(rt.source == "evaluation 2 of run 2 (promp on ML4, split test, after 2 adaptation "
+                     "episodes and 0 gradient steps)");
+  REQUIRE(rt.rows.size() == 1);
+  CHECK(*rt.rows[0].normalised == Approx(0.5));
+  CHECK(*rt.rows[0].success == 1.0);
+
+  // the run's own report is not the evaluation's: the run recorded no scores
+  CHECK_THROWS_AS(registry::age_report(reg, "", run), Error);
+  CHECK_THAT(error_of([&] { registry::age_report_evaluation(reg, 77); }),
+             Catch::Contains("no evaluation with id 77"));
+  registry::Evaluation empty = t;
+  empty.scores.clear();
+  const int64_t none = reg.add_evaluation(empty);
+  CHECK_THAT(error_of([&] { registry::age_report_evaluation(reg, none); }),
+             Catch::Contains("evaluation 3 recorded no scores"));
 }
