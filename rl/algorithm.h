@@ -25,6 +25,28 @@ struct Transition {
   torch::Tensor final_obs;  // [K, D] their last observation, for bootstrapping
 };
 
+// Meta-RL's evaluation (bidex eval --split): the policy adapts to each slot's task from what it
+// saw on it. The protocol (trainer.h, evaluate_meta) scores one episode of the meta-learned
+// policy's deterministic action, begins afresh, explores for some episodes, adapts, and scores
+// one episode of the adapted policy's deterministic action.
+class Adaptive {
+ public:
+  virtual ~Adaptive() = default;
+  // Starts from the meta-learned policy with nothing adapted or remembered: slot s belongs to
+  // task slot_task[s] of ntasks (adaptation pools the slots of a task).
+  virtual void begin(const std::vector<int>& slot_task, int ntasks) = 0;
+  // Sampled actions [N, A] of the policy as adapted so far (exploration).
+  virtual torch::Tensor explore(const torch::Tensor& obs) = 0;
+  // Deterministic actions [N, A] in [-1, 1] of the policy as adapted so far.
+  virtual torch::Tensor exploit(const torch::Tensor& obs) = 0;
+  // The step that followed explore() or exploit(); `keep` [N] is 1 where the step belongs to
+  // the slot's episodes of this phase and 0 where the slot is only waiting for the others.
+  virtual void observe(const Transition& t, const torch::Tensor& keep) = 0;
+  // Adapts each task from the steps kept since begin(): `steps` gradient steps (MAML, ProMP);
+  // RL^2's memory adapts as it acts, and this does nothing.
+  virtual void adapt(int steps) = 0;
+};
+
 class Algorithm {
  public:
   virtual ~Algorithm() = default;
@@ -45,7 +67,21 @@ class Algorithm {
   virtual void load_actor(torch::serialize::InputArchive& root, const std::string& path) = 0;
   // The deterministic actions [n, A] in [-1, 1] for observations [n, D] (evaluation, render).
   virtual torch::Tensor actor(const torch::Tensor& obs) = 0;
+  // The task of each slot of the training pack (taskpack::Pack::slot_tasks), given once before
+  // the first act(); meta-RL adapts per task, other algorithms ignore it.
+  virtual void set_slot_tasks(const std::vector<int>& /*slot_task*/, int /*ntasks*/) {}
+  // Meta-RL's evaluation protocol, after load_actor(); null for algorithms that do not adapt.
+  virtual Adaptive* adaptive() { return nullptr; }
 };
+
+using AlgorithmFactory = std::function<std::unique_ptr<Algorithm>(
+    const TrainConfig& config, int64_t obs_dim, int64_t act_dim, int64_t nslot,
+    const torch::Device& device)>;
+
+// Adds an algorithm family's member from outside rl (metarl: MAML, ProMP, RL^2): its entry, its
+// factory and the reader of its YAML section (algorithms.h). A name already registered is a
+// std::logic_error. Families register once at start-up (the bidex command, tests).
+void register_algorithm(const AlgorithmInfo& info, AlgorithmFactory make, SectionReader read);
 
 // A new algorithm `name` (algorithms.h lists them) for a run of `nslot` slots of obs_dim /
 // act_dim on `device`; an unknown name is a ConfigError listing the known ones.

@@ -1,6 +1,8 @@
 // The algorithm registry: one line per algorithm.
 #include "rl/algorithms.h"
 
+#include <stdexcept>
+
 #include "core/error.h"
 #include "rl/algorithm.h"
 #include "rl/ppo.h"
@@ -12,26 +14,25 @@ namespace bidex::rl {
 
 namespace {
 
-using Make = std::unique_ptr<Algorithm> (*)(const TrainConfig&, int64_t, int64_t, int64_t,
-                                            const torch::Device&);
 struct Entry {
   AlgorithmInfo info;
-  Make make;
+  AlgorithmFactory make;
+  SectionReader read;  // empty: rl's own (config.cc)
 };
 
-const std::vector<Entry>& entries() {
-  static const std::vector<Entry> all = {
-      {{"ppo", "PPO", TrainsOn::kTask, "ppo"}, make_ppo},
+std::vector<Entry>& entries() {
+  static std::vector<Entry> all = {
+      {{"ppo", "PPO", TrainsOn::kTask, "ppo"}, make_ppo, {}},
       // multi-task PPO: PPO on a multi-task suite's pack (one-hot task ids in the observation)
-      {{"mtppo", "multi-task PPO", TrainsOn::kSuite, "ppo"}, make_ppo},
-      {{"trpo", "TRPO", TrainsOn::kTask, "trpo"}, make_trpo},
+      {{"mtppo", "multi-task PPO", TrainsOn::kSuite, "ppo"}, make_ppo, {}},
+      {{"trpo", "TRPO", TrainsOn::kTask, "trpo"}, make_trpo, {}},
       // multi-task TRPO: TRPO on a multi-task suite's pack
-      {{"mttrpo", "multi-task TRPO", TrainsOn::kSuite, "trpo"}, make_trpo},
-      {{"sac", "SAC", TrainsOn::kTask, "sac"}, make_sac},
+      {{"mttrpo", "multi-task TRPO", TrainsOn::kSuite, "trpo"}, make_trpo, {}},
+      {{"sac", "SAC", TrainsOn::kTask, "sac"}, make_sac, {}},
       // multi-task SAC: one temperature per task of the suite, from the one-hot task id
-      {{"mtsac", "multi-task SAC", TrainsOn::kSuite, "sac"}, make_mtsac},
-      {{"td3", "TD3", TrainsOn::kTask, "td3"}, make_td3},
-      {{"ddpg", "DDPG", TrainsOn::kTask, "ddpg"}, make_td3},
+      {{"mtsac", "multi-task SAC", TrainsOn::kSuite, "sac"}, make_mtsac, {}},
+      {{"td3", "TD3", TrainsOn::kTask, "td3"}, make_td3, {}},
+      {{"ddpg", "DDPG", TrainsOn::kTask, "ddpg"}, make_td3, {}},
   };
   return all;
 }
@@ -57,6 +58,18 @@ std::string algorithm_names() {
 }
 
 AlgorithmInfo find_algorithm(const std::string& name) { return entry(name).info; }
+
+const SectionReader* section_reader(const std::string& name) {
+  const Entry& e = entry(name);
+  return e.read ? &e.read : nullptr;
+}
+
+void register_algorithm(const AlgorithmInfo& info, AlgorithmFactory make, SectionReader read) {
+  for (auto& e : entries())
+    if (e.info.name == info.name)
+      throw std::logic_error("algorithm " + info.name + " is registered twice");
+  entries().push_back({info, std::move(make), std::move(read)});
+}
 
 std::unique_ptr<Algorithm> make_algorithm(const std::string& name, const TrainConfig& config,
                                           int64_t obs_dim, int64_t act_dim, int64_t nslot,

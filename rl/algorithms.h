@@ -3,8 +3,13 @@
 // line in algorithms.cc. (The Algorithm interface itself, which needs LibTorch, is algorithm.h.)
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
+
+namespace bidex {
+class YamlView;
+}
 
 namespace bidex::rl {
 
@@ -16,7 +21,17 @@ struct AlgorithmInfo {
   std::string title;  // in plots: "PPO", "multi-task PPO"
   TrainsOn trains_on = TrainsOn::kTask;
   std::string section;  // its settings' section in the YAML ("ppo", "trpo")
+  // Adapts to each task at evaluation (meta-RL): bidex eval --split runs its protocol, and it
+  // trains on the train split of a suite that has a test split.
+  bool meta = false;
 };
+
+// Reads a family's own YAML section strictly (a ConfigError naming the key). rl reads its own
+// algorithms' sections in config.cc; a family registered from outside rl (algorithm.h,
+// register_algorithm) brings its reader, and its factory reads TrainConfig::section_yaml with it.
+using SectionReader = std::function<void(const YamlView& section)>;
+// The reader of `name`'s section, or null for rl's own algorithms.
+const SectionReader* section_reader(const std::string& name);
 
 // Every algorithm `bidex train` knows, in the order --help lists them.
 std::vector<AlgorithmInfo> algorithm_registry();

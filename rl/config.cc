@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/yaml.h"
 #include "rl/algorithms.h"
+#include "rl/config_fields.h"
 #include "sim/hand_spec.h"
 
 namespace bidex::rl {
@@ -22,12 +23,6 @@ std::string quoted(const std::string& s) {
   std::string q = "'";
   q.append(s).append("'");
   return q;
-}
-
-std::string join(const std::vector<std::string>& v) {
-  std::string s;
-  for (auto& x : v) s += (s.empty() ? "" : ", ") + x;
-  return s;
 }
 
 std::string map_keys(const YAML::Node& n) {
@@ -154,39 +149,10 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     if (x < 0 || x != std::floor(x) || x > 9.0e15) s.fail("an integer >= 0", s.repr());
     c.seed = static_cast<uint64_t>(x);
   }
-  auto positive = [](const YamlView& p, const char* key, int lo) {
-    auto n = p.child(key);
-    const int x = n.as<int>();
-    if (x < lo) n.fail("an integer >= " + std::to_string(lo), n.repr());
-    return x;
-  };
-  auto real = [](const YamlView& p, const char* key, double lo, double hi, bool open_lo) {
-    auto n = p.child(key);
-    const double x = n.as<double>();
-    if (!std::isfinite(x) || (open_lo ? x <= lo : x < lo) || x > hi) {
-      char buf[96];
-      std::snprintf(buf, sizeof buf, "a number in %s%g, %g]", open_lo ? "(" : "[", lo, hi);
-      n.fail(buf, n.repr());
-    }
-    return x;
-  };
-  auto widths = [](const YamlView& h) {
-    std::vector<int> out;
-    for (auto& item : h.items()) {
-      const int x = item.as<int>();
-      if (x < 1) item.fail("a layer width >= 1", item.repr());
-      out.push_back(x);
-    }
-    if (out.empty()) h.fail("at least one hidden layer", "[]");
-    return out;
-  };
-  auto choice = [](const YamlView& p, const char* key, const std::vector<std::string>& allowed) {
-    auto n = p.child(key);
-    const std::string x = n.as<std::string>();
-    for (auto& a : allowed)
-      if (a == x) return x;
-    n.fail("one of " + join(allowed), n.repr());
-  };
+  const auto positive = read_int;
+  const auto real = read_real;
+  const auto widths = read_widths;
+  const auto choice = read_choice;
   {
     auto e = v.child("env");
     e.allow_keys({"slots", "threads", "task_config"});
@@ -211,6 +177,15 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     c.device = choice(t, "device", {"auto", "cpu", "cuda"});
     c.torch_threads = positive(t, "torch_threads", 0);
     if (auto tf = t.maybe("tf32")) c.tf32 = tf->as<bool>();
+  }
+  // a family registered from outside rl reads its own section
+  if (const SectionReader* read = section_reader(c.algo)) {
+    YamlView section = v.child(info.section);
+    (*read)(section);
+    YAML::Emitter em;
+    em << section.node();
+    c.section_yaml = std::string(em.c_str()) + "\n";
+    return c;
   }
   // the keys every replay-buffer algorithm has (SacConfig, Td3Config), after allow_keys
   const std::vector<std::string> replay_keys = {

@@ -106,6 +106,9 @@ struct TrainConfig {
   TrpoConfig trpo;  // trpo only
   SacConfig sac;    // sac only
   Td3Config td3;    // td3 and ddpg
+  // The algorithm's own section as YAML text, for families registered from outside rl
+  // (algorithms.h, SectionReader); empty for rl's own.
+  std::string section_yaml;
 
   // slot-steps per update
   int64_t batch() const { return int64_t(slots) * ppo.horizon; }

@@ -81,10 +81,10 @@ torch::Device pick_device(const TrainConfig& c, const std::string& name) {
   return torch::Device(torch::kCUDA, 0);
 }
 
-// The pack a run trains on: its task alone (one entry, plain observations), or the train split
-// of its suite with `slots` spread over the entries.
-taskpack::PackSpec run_pack(const TrainConfig& c, int slots) {
-  if (!c.suite.empty()) return taskpack::suite_pack(taskpack::load_suite(c.suite), "train", slots);
+// The pack a run trains on: its task alone (one entry, plain observations), or a split of its
+// suite (training: the train split) with `slots` spread over the entries.
+taskpack::PackSpec run_pack(const TrainConfig& c, int slots, const std::string& split = "train") {
+  if (!c.suite.empty()) return taskpack::suite_pack(taskpack::load_suite(c.suite), split, slots);
   taskpack::PackSpec p;
   p.name = c.task;
   p.mode = taskpack::PackMode::kPlain;
@@ -95,6 +95,20 @@ taskpack::PackSpec run_pack(const TrainConfig& c, int slots) {
   e.slots = slots;
   p.entries.push_back(e);
   return p;
+}
+
+// Meta-RL trains on a meta suite's train split and is evaluated on its held-out test split; a
+// multi-task suite has none (its test split is its train split).
+void check_meta_suite(const taskpack::Suite& suite, const std::string& where) {
+  std::string why;
+  if (suite.mode != taskpack::PackMode::kMeta)
+    why = "a multi-task suite tests on its train tasks";
+  else if (suite.test.empty() || suite.test.front().label == suite.train.front().label)
+    why = "its test split is its train split";  // `test: train` (labels are unique otherwise)
+  if (!why.empty())
+    throw ConfigError(where, "suite",
+                      "a meta suite with a held-out test split (ML1, ML1-goals, ML4, ML20)",
+                      suite.id + " (no held-out test split: " + why + ")");
 }
 
 // Columns of metrics.csv: the run's own (steps, rates, episodes, returns; a task run has one
@@ -182,6 +196,7 @@ struct Session {
     if (device.is_cuda())
       at::globalContext().setFloat32MatmulPrecision(cfg.tf32 ? "high" : "highest");
     torch::manual_seed(cfg.seed);
+    if (find_algorithm(cfg.algo).meta) check_meta_suite(taskpack::load_suite(cfg.suite), name);
     const taskpack::PackSpec spec = run_pack(cfg, cfg.slots);
     sim_device = choose_sim_device(requested_sim_device, spec, &sim_why);
     if (sim_device == "cpu") {
@@ -197,6 +212,9 @@ struct Session {
       if (sim_device == "warp-cpu") device = torch::Device(torch::kCPU);
     }
     algo = make_algorithm(cfg.algo, cfg, env->obs_dim(), env->act_dim(), env->nslot(), device);
+    int ntasks = 0;
+    const std::vector<int> tasks = env->slot_tasks(&ntasks);
+    algo->set_slot_tasks(tasks, ntasks);
   }
 
   // The simulation's device: cpu, cuda or warp-cpu as asked (cuda needs the learner on the GPU
@@ -621,6 +639,8 @@ void LoadedPolicy::act(const float* obs, int n, float* actions) {
   std::memcpy(actions, a.data_ptr<float>(), sizeof(float) * n * impl_->meta.act_dim);
 }
 
+Adaptive* LoadedPolicy::adaptive() { return impl_->algo->adaptive(); }
+
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
   const auto& c = policy.config();
   return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
@@ -712,6 +732,107 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
   r.std_return = sd / G;
   r.mean_length = ml / G;
   r.success_rate = ms / G;
+  return r;
+}
+
+MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int episodes,
+                             int adapt_episodes, int adapt_steps, uint64_t seed, int threads) {
+  const TrainConfig& c = policy.config();
+  Adaptive* adapt = policy.adaptive();
+  if (!adapt)
+    throw Error("run of " + c.target() + " trained " + c.algo + ", which does not adapt to a " +
+                "task: --split, --adapt-episodes and --adapt-steps evaluate meta-RL runs (" +
+                "maml, promp, rl2); evaluate this run without them");
+  if (split != "train" && split != "test")
+    throw ConfigError("--split", "split", "train or test", "'" + split + "'");
+  check_meta_suite(taskpack::load_suite(c.suite), policy.checkpoint());
+  if (episodes < 1 || adapt_episodes < 1 || adapt_steps < 0)
+    throw Error("meta evaluation: --episodes and --adapt-episodes must be >= 1 and "
+                "--adapt-steps >= 0 (got " + std::to_string(episodes) + ", " +
+                std::to_string(adapt_episodes) + ", " + std::to_string(adapt_steps) + ")");
+  taskpack::PackSpec ps = run_pack(c, 1, split);
+  for (auto& e : ps.entries)  // `episodes` slots per task: per goal of a goal distribution
+    e.slots = episodes * std::max<int>(1, static_cast<int>(e.goals.size()));
+  taskpack::PackOptions po;
+  po.threads = threads;
+  po.seed = seed;
+  taskpack::TaskPack env(ps, po);
+  if (env.obs_dim() != policy.obs_dim() || env.act_dim() != policy.act_dim())
+    throw Error("checkpoint " + policy.checkpoint() + " has observations " +
+                std::to_string(policy.obs_dim()) + " and actions " +
+                std::to_string(policy.act_dim()) + "; the " + split + " split of " + c.suite +
+                " has " + std::to_string(env.obs_dim()) + " and " +
+                std::to_string(env.act_dim()));
+  torch::manual_seed(seed);
+  const torch::Device cpu(torch::kCPU);
+  auto collector = make_collector(env, cpu);
+  int ntasks = 0;
+  const std::vector<int> tasks = env.slot_tasks(&ntasks);
+  const int n = env.nslot();
+  MetaEvalResult r;
+  r.split = split;
+  r.adapt_episodes = adapt_episodes;
+  r.adapt_steps = adapt_steps;
+  // Runs every slot from a reset until it has finished `count` episodes; returns each slot's
+  // first episode's unscaled return and success.
+  auto phase = [&](bool explore, int count, std::vector<double>* ret, std::vector<uint8_t>* succ) {
+    torch::NoGradGuard ng;
+    torch::Tensor obs = collector->reset();
+    std::vector<int> left(n, count);
+    std::vector<double> acc(n, 0.0);
+    ret->assign(n, 0.0);
+    succ->assign(n, 0);
+    int busy = n;
+    auto keep = torch::ones({n});
+    while (busy > 0) {
+      Transition t = collector->step(explore ? adapt->explore(obs) : adapt->exploit(obs));
+      adapt->observe(t, keep);
+      auto k = keep.accessor<float, 1>();
+      for (int s = 0; s < n; ++s) {
+        if (env.fault[s]) r.faults += 1;
+        if (!left[s]) continue;
+        const int g = env.group_of(s);
+        acc[s] += env.group(g).reward[s - env.group_begin(g)];
+        if (!(env.terminated[s] || env.truncated[s])) continue;
+        if (left[s] == count) {
+          (*ret)[s] = acc[s];
+          (*succ)[s] = env.success[s];
+        }
+        acc[s] = 0;
+        if (--left[s] == 0) {
+          k[s] = 0;
+          --busy;
+        }
+      }
+      obs = t.obs;
+    }
+  };
+  std::vector<double> before, after, unused;
+  std::vector<uint8_t> sb, sa, unused_s;
+  adapt->begin(tasks, ntasks);
+  phase(false, 1, &before, &sb);
+  adapt->begin(tasks, ntasks);
+  phase(true, adapt_episodes, &unused, &unused_s);
+  adapt->adapt(adapt_steps);
+  phase(false, 1, &after, &sa);
+  for (int g = 0; g < env.ngroups(); ++g) {
+    AdaptScore a;
+    a.label = env.label(g);
+    a.task = env.entry(g).task;
+    const int b = env.group_begin(g), k = env.group(g).nslot();
+    for (int s = b; s < b + k; ++s) {
+      a.return_before += before[s] / k;
+      a.return_after += after[s] / k;
+      a.success_before += double(sb[s]) / k;
+      a.success_after += double(sa[s]) / k;
+    }
+    a.episodes = k;
+    r.return_before += a.return_before / env.ngroups();
+    r.return_after += a.return_after / env.ngroups();
+    r.success_before += a.success_before / env.ngroups();
+    r.success_after += a.success_after / env.ngroups();
+    r.per_task.push_back(a);
+  }
   return r;
 }
 

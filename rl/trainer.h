@@ -19,6 +19,8 @@ class TaskPack;
 
 namespace bidex::rl {
 
+class Adaptive;
+
 // The mean return and success rate of one task of a run (a suite run has one per entry).
 struct EntryScore {
   std::string label, task;
@@ -82,6 +84,8 @@ class LoadedPolicy {
   int64_t update() const;
   // n rows of obs_dim observations -> n rows of act_dim actions (the mean, clipped to [-1, 1]).
   void act(const float* obs, int n, float* actions);
+  // Meta-RL's adaptation (algorithm.h); null when the run's algorithm does not adapt.
+  Adaptive* adaptive();
 
  private:
   struct Impl;
@@ -110,5 +114,31 @@ using Actor = std::function<void(const float* obs, int n, float* actions)>;
 using ActorFactory = std::function<Actor(const taskpack::TaskPack&)>;
 EvalResult evaluate_actions(const TrainConfig& config, int episodes, uint64_t seed, int threads,
                             const ActorFactory& make_actor);
+
+// One task of a meta-RL evaluation: the mean return and success rate of one episode per slot
+// before adaptation (the meta-learned policy's deterministic action) and after it.
+struct AdaptScore {
+  std::string label, task;
+  int64_t episodes = 0;
+  double return_before = 0, success_before = 0, return_after = 0, success_after = 0;
+};
+
+struct MetaEvalResult {
+  std::string split;
+  int adapt_episodes = 0, adapt_steps = 0;
+  std::vector<AdaptScore> per_task;  // one per entry of the split (a goal distribution: one)
+  double return_before = 0, return_after = 0, success_before = 0, success_after = 0;  // means
+  int64_t faults = 0;
+};
+
+// Meta-RL's protocol on the `split` (train or test) of a meta run's suite, with `episodes`
+// slots per task (per goal of a goal distribution), on the CPU: (1) one episode of the
+// meta-learned policy's deterministic action scores "before"; (2) afresh, `adapt_episodes`
+// episodes of the sampled policy per slot are what it adapts from, with `adapt_steps` gradient
+// steps per task (MAML, ProMP; RL^2 adapts in its memory over these episodes); (3) one episode of
+// the adapted policy's deterministic action scores "after". A run whose algorithm does not adapt,
+// an unknown split or a suite without it is an Error naming it.
+MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int episodes,
+                             int adapt_episodes, int adapt_steps, uint64_t seed, int threads);
 
 }  // namespace bidex::rl

@@ -164,6 +164,19 @@ void Pack::assign_goals() {
   }
 }
 
+std::vector<int> Pack::slot_tasks(int* ntasks) const {
+  std::vector<int> out;
+  out.reserve(static_cast<size_t>(nslot()));
+  int first = 0;
+  for (const PackEntry& e : spec_.entries) {
+    const int k = std::max<int>(1, static_cast<int>(e.goals.size()));
+    for (int i = 0; i < e.slots; ++i) out.push_back(first + i % k);
+    first += k;
+  }
+  if (ntasks) *ntasks = first;
+  return out;
+}
+
 TaskPack::TaskPack(const PackSpec& spec, const PackOptions& options) : Pack(spec) {
   const int n = ngroups();
   // one env per entry, consecutive slots

@@ -105,6 +105,10 @@ class Pack {
   // Gives every entry with goals its slots' shifts in turn (PackEntry::goals), from their next
   // reset; the packs call it once they are built.
   void assign_goals();
+  // Meta-RL's task of each slot: an entry is one task, or with goals (PackEntry::goals) one
+  // task per goal, slot i of the entry having goal i % goals; tasks are numbered entry by entry.
+  // `ntasks` (if given) receives their count.
+  std::vector<int> slot_tasks(int* ntasks = nullptr) const;
 
  protected:
   explicit Pack(const PackSpec& spec);
