@@ -10,6 +10,7 @@
 
 #include "apps/commands.h"
 #include "core/error.h"
+#include "metarl/algorithms.h"
 
 namespace bidex::apps {
 namespace {
@@ -24,6 +25,8 @@ void set_command_line(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   bidex::apps::set_command_line(argc, argv);
+  // algorithm families outside rl: one registration each
+  bidex::metarl::register_algorithms();
   CLI::App app{"bidex: bimanual dexterous manipulation benchmark (two Shadow Hands, batched MuJoCo)"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Print help for every command");

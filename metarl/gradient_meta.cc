@@ -1,0 +1,406 @@
+// MAML and ProMP on the learning core. One meta-update: `horizon` steps of every slot with the
+// meta-policy theta (the pre-adaptation rollouts), one adaptation per task from its slots' rows
+// (MAML: the policy-gradient step, maml.h; ProMP: the LVC step, promp.h), `horizon` steps of
+// every slot with its task's adapted policy (the post-adaptation rollouts), then `epochs` outer
+// steps: each adapts theta again, differentiably, and minimises the mean over tasks of the
+// clipped surrogate of the adapted policy on its rollouts (ProMP adds its KL penalty on the
+// pre-adaptation rows). A critic, fitted to both phases' returns, gives GAE advantages.
+// Episodes run on across the phase boundary; time-limited ones are bootstrapped.
+#include <cmath>
+
+#include "metarl/algorithms.h"
+#include "metarl/config.h"
+#include "metarl/functional_policy.h"
+#include "metarl/maml.h"
+#include "metarl/promp.h"
+#include "rl/checkpoint.h"
+#include "rl/policy.h"
+#include "rl/ppo.h"
+
+namespace bidex::metarl {
+
+namespace {
+
+// The meta-parameters as a module: Adam steps them and checkpoints hold them.
+struct ParamsImpl : torch::nn::Module {
+  explicit ParamsImpl(const std::vector<torch::Tensor>& init) {
+    for (size_t i = 0; i < init.size(); ++i)
+      list.push_back(register_parameter("p" + std::to_string(i), init[i].detach().clone()));
+  }
+  std::vector<torch::Tensor> list;
+};
+TORCH_MODULE(Params);
+
+// Rows [T, N, ...] of the slots in `idx`, flattened to [T x |idx|, ...].
+torch::Tensor rows(const torch::Tensor& x, const torch::Tensor& idx) {
+  auto r = x.index_select(1, idx);
+  std::vector<int64_t> shape = {-1};
+  for (int64_t d = 2; d < r.dim(); ++d) shape.push_back(r.size(d));
+  return r.reshape(shape);
+}
+
+torch::Tensor normalised(const torch::Tensor& a) {
+  return a.numel() > 1 ? (a - a.mean()) / (a.std() + 1e-8) : a - a.mean();
+}
+
+// One phase's rollout, [T, N, ...].
+struct Phase {
+  torch::Tensor obs, actions, logp, values, rewards, dones;
+  void allocate(int64_t T, int64_t N, int64_t D, int64_t A, const torch::TensorOptions& f) {
+    obs = torch::zeros({T, N, D}, f);
+    actions = torch::zeros({T, N, A}, f);
+    logp = torch::zeros({T, N}, f);
+    values = torch::zeros({T, N}, f);
+    rewards = torch::zeros({T, N}, f);
+    dones = torch::zeros({T, N}, f);
+  }
+};
+
+class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
+ public:
+  GradientMeta(const GradientMetaConfig& c, bool promp, int64_t D, int64_t A, int64_t N,
+               uint64_t seed, const torch::Device& device)
+      : c_(c), promp_(promp), N_(N), device_(device) {
+    pi_ = FunctionalGaussian::init(D, c.hidden, A, c.activation, c.init_std, seed);
+    params_ = Params(pi_.params);
+    pi_.params.clear();  // params_ holds them
+    critic_ = rl::mlp(D, c.hidden, 1, c.activation, 1.0);
+    params_->to(device);
+    critic_->to(device);
+    std::vector<torch::Tensor> all = params_->parameters();
+    for (auto& p : critic_->parameters()) all.push_back(p);
+    opt_ = std::make_unique<torch::optim::Adam>(all, torch::optim::AdamOptions(c.lr));
+    eta_ = torch::full({1}, c.init_kl_coef, torch::kFloat64);
+    const auto f = torch::TensorOptions().dtype(torch::kFloat32).device(device);
+    if (N > 0) {
+      pre_.allocate(c.horizon, N, D, A, f);
+      post_.allocate(c.horizon, N, D, A, f);
+      set_slot_tasks(std::vector<int>(N, 0), 1);
+    }
+  }
+
+  int steps_per_update() const override { return 2 * c_.horizon; }
+
+  void set_slot_tasks(const std::vector<int>& slot_task, int ntasks) override {
+    task_rows_ = group_slots(slot_task, ntasks);
+  }
+
+  torch::Tensor act(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    const bool pre = t_ < c_.horizon;
+    if (t_ == c_.horizon) adapted_ = adapt_from_pre(obs);
+    Phase& ph = pre ? pre_ : post_;
+    const int64_t k = pre ? t_ : t_ - c_.horizon;
+    torch::Tensor mean, log_std;
+    if (pre) {
+      mean = pi_.mean(theta(), obs);
+      log_std = pi_.log_std(theta()).expand_as(mean);
+    } else {
+      std::tie(mean, log_std) = per_task(adapted_, task_rows_, obs);
+    }
+    const auto a = mean + log_std.exp() * torch::randn_like(mean);
+    ph.obs[k] = obs;
+    ph.actions[k] = a;
+    ph.logp[k] = rl::gaussian_log_prob(a, mean, log_std);
+    ph.values[k] = critic_->forward(obs).squeeze(-1);
+    return a;
+  }
+
+  void observe(const rl::Transition& t) override {
+    torch::NoGradGuard ng;
+    Phase& ph = t_ < c_.horizon ? pre_ : post_;
+    const int64_t k = t_ < c_.horizon ? t_ : t_ - c_.horizon;
+    ph.rewards[k] = bootstrapped(t);
+    ph.dones[k] = t.done;
+    ++t_;
+  }
+
+  std::vector<double> update(const torch::Tensor& obs) override {
+    torch::AutoGradMode grad_on(true);
+    torch::Tensor post_adv, post_ret;
+    {
+      torch::NoGradGuard ng;
+      const auto last = critic_->forward(obs).squeeze(-1);
+      std::tie(post_adv, post_ret) =
+          rl::gae(post_.rewards, post_.values, post_.dones, last, c_.gamma, c_.lambda);
+    }
+    const std::vector<torch::Tensor> theta_old = detached(theta());
+    const int K = static_cast<int>(task_rows_.size());
+    std::vector<Batch> pre_b(K), post_b(K);
+    for (int k = 0; k < K; ++k) {
+      const auto& idx = task_rows_[k];
+      pre_b[k] = {rows(pre_.obs, idx), rows(pre_.actions, idx), normalised(rows(pre_adv_, idx)),
+                  rows(pre_.logp, idx)};
+      post_b[k] = {rows(post_.obs, idx), rows(post_.actions, idx),
+                   normalised(rows(post_adv, idx)), rows(post_.logp, idx)};
+    }
+    const auto all_obs = torch::cat({pre_.obs.flatten(0, 1), post_.obs.flatten(0, 1)});
+    const auto all_ret = torch::cat({pre_ret_.flatten(), post_ret.flatten()});
+    const double eta = eta_.item<double>();
+    auto sums = torch::zeros({3}, torch::TensorOptions().dtype(torch::kFloat64).device(device_));
+    for (int e = 0; e < c_.epochs; ++e) {
+      opt_->zero_grad();
+      for (int k = 0; k < K; ++k) {
+        const auto adapted = adapt(theta(), pre_b[k], c_.inner_steps, !c_.first_order);
+        auto surrogate = promp_surrogate(pi_, adapted, post_b[k], c_.clip);
+        auto loss = surrogate;
+        torch::Tensor kl = torch::zeros({}, surrogate.options());
+        if (promp_) {
+          kl = promp_kl(pi_, theta_old, theta(), pre_b[k].obs);
+          loss = loss + eta * kl;
+        }
+        (loss / K).backward();
+        torch::NoGradGuard ng;
+        sums[0] += surrogate.detach().to(torch::kFloat64) / K;
+        sums[1] += kl.detach().to(torch::kFloat64) / K;
+      }
+      const auto value_loss = (critic_->forward(all_obs).squeeze(-1) - all_ret).pow(2).mean();
+      value_loss.backward();
+      torch::nn::utils::clip_grad_norm_(params_->parameters(), c_.max_grad_norm);
+      torch::nn::utils::clip_grad_norm_(critic_->parameters(), c_.max_grad_norm);
+      opt_->step();
+      torch::NoGradGuard ng;
+      sums[2] += value_loss.detach().to(torch::kFloat64);
+    }
+    double kl_after = 0;
+    {
+      torch::NoGradGuard ng;
+      kl_after = pi_.kl(theta_old, theta(), pre_.obs.flatten(0, 1)).item<double>();
+      if (promp_) {
+        AdaptiveKlPenalty pen{eta, c_.target_kl};
+        eta_.fill_(pen.update(kl_after));
+      }
+    }
+    t_ = 0;
+    const auto m = (sums / c_.epochs).to(torch::kCPU);
+    torch::NoGradGuard ng;
+    return {m[0].item<double>(),
+            m[1].item<double>(),
+            m[2].item<double>(),
+            kl_after,
+            eta_.item<double>(),
+            pre_.rewards.mean().item<double>(),
+            post_.rewards.mean().item<double>()};
+  }
+
+  const std::vector<std::string>& metric_names() const override {
+    // reward_pre / reward_post: the mean reward per step before and after adaptation
+    static const std::vector<std::string> names = {
+        "surrogate", "kl_penalty", "value_loss", "kl", "kl_coef", "reward_pre", "reward_post"};
+    return names;
+  }
+
+  void save(torch::serialize::OutputArchive& root) override {
+    rl::write_part(root, "meta_policy", *params_);
+    rl::write_part(root, "critic", *critic_);
+    rl::write_part(root, "optimizer", *opt_);
+    root.write("kl_coef", eta_);
+  }
+
+  void load(torch::serialize::InputArchive& root, const std::string& path) override {
+    rl::read_checked(path, "does not fit this run's networks", [&] {
+      rl::read_module(root, "meta_policy", *params_, path, "this run's meta-policy");
+      rl::read_module(root, "critic", *critic_, path, "this run's critic");
+      rl::read_optimizer(root, "optimizer", *opt_);
+      torch::Tensor eta;
+      root.read("kl_coef", eta);
+      eta_.copy_(eta.to(torch::kCPU));
+    });
+  }
+
+  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
+    // the critic too: adaptation at evaluation needs its advantages
+    rl::read_checked(path, "holds no meta-policy", [&] {
+      rl::read_module(root, "meta_policy", *params_, path, "this run's meta-policy");
+      rl::read_module(root, "critic", *critic_, path, "this run's critic");
+    });
+  }
+
+  torch::Tensor actor(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    return pi_.mean(theta(), obs).clamp(-1, 1);
+  }
+
+  rl::Adaptive* adaptive() override { return this; }
+
+  // --- evaluation (rl::Adaptive) ---
+  void begin(const std::vector<int>& slot_task, int ntasks) override {
+    eval_rows_ = group_slots(slot_task, ntasks);
+    eval_adapted_.assign(ntasks, detached(theta()));
+    eval_.clear();
+  }
+
+  torch::Tensor explore(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    auto [mean, log_std] = per_task(eval_adapted_, eval_rows_, obs);
+    const auto a = mean + log_std.exp() * torch::randn_like(mean);
+    EvalStep s;
+    s.obs = obs;
+    s.actions = a;
+    s.logp = rl::gaussian_log_prob(a, mean, log_std);
+    eval_.push_back(s);
+    return a;
+  }
+
+  torch::Tensor exploit(const torch::Tensor& obs) override {
+    torch::NoGradGuard ng;
+    eval_.push_back({});  // nothing to adapt from: the step's row stays out (keep is ignored)
+    return per_task(eval_adapted_, eval_rows_, obs).first.clamp(-1, 1);
+  }
+
+  void observe(const rl::Transition& t, const torch::Tensor& keep) override {
+    torch::NoGradGuard ng;
+    EvalStep& s = eval_.back();
+    if (!s.obs.defined()) return;
+    s.reward = bootstrapped(t);
+    s.done = t.done;
+    s.keep = keep.clone();
+  }
+
+  void adapt(int steps) override {
+    std::vector<EvalStep> kept;
+    for (auto& s : eval_)
+      if (s.obs.defined() && s.reward.defined()) kept.push_back(s);
+    eval_.clear();
+    if (kept.empty() || steps == 0) return;
+    auto stack = [&](auto field) {
+      std::vector<torch::Tensor> v;
+      for (auto& s : kept) v.push_back(field(s));
+      return torch::stack(v);
+    };
+    const auto obs = stack([](const EvalStep& s) { return s.obs; });
+    const auto actions = stack([](const EvalStep& s) { return s.actions; });
+    const auto logp = stack([](const EvalStep& s) { return s.logp; });
+    const auto rewards = stack([](const EvalStep& s) { return s.reward; });
+    const auto keep = stack([](const EvalStep& s) { return s.keep; });
+    // a slot's rows end with its last kept episode's end: cut the recursion at every row that
+    // is not kept, so that waiting steps add nothing
+    const auto dones = torch::maximum(stack([](const EvalStep& s) { return s.done; }), 1 - keep);
+    torch::Tensor adv;
+    {
+      torch::NoGradGuard ng;
+      const auto values = critic_->forward(obs).squeeze(-1);
+      adv = rl::gae(rewards, values, dones, torch::zeros_like(values[0]), c_.gamma, c_.lambda)
+                .first;
+    }
+    for (size_t k = 0; k < eval_rows_.size(); ++k) {
+      const auto& idx = eval_rows_[k];
+      const auto m = rows(keep, idx) > 0.5;
+      Batch b{rows(obs, idx).index({m}), rows(actions, idx).index({m}),
+              normalised(rows(adv, idx).index({m})), rows(logp, idx).index({m})};
+      if (b.obs.size(0) == 0) continue;
+      eval_adapted_[k] = detached(adapt(eval_adapted_[k], b, steps, false));
+    }
+  }
+
+ private:
+  struct EvalStep {
+    torch::Tensor obs, actions, logp, reward, done, keep;
+  };
+
+  const std::vector<torch::Tensor>& theta() const { return params_->list; }
+
+  // slot indices of each task, as index tensors on the device
+  std::vector<torch::Tensor> group_slots(const std::vector<int>& slot_task, int ntasks) const {
+    std::vector<std::vector<int64_t>> idx(ntasks);
+    for (size_t s = 0; s < slot_task.size(); ++s) idx.at(slot_task[s]).push_back(int64_t(s));
+    std::vector<torch::Tensor> out;
+    for (auto& v : idx)
+      if (!v.empty()) out.push_back(torch::tensor(v, torch::kLong).to(device_));
+      else out.push_back(torch::empty({0}, torch::TensorOptions(torch::kLong).device(device_)));
+    return out;
+  }
+
+  // The means and log-stds [N, A] of each slot's task's parameters.
+  std::pair<torch::Tensor, torch::Tensor> per_task(
+      const std::vector<std::vector<torch::Tensor>>& params,
+      const std::vector<torch::Tensor>& task_rows, const torch::Tensor& obs) const {
+    auto mean = torch::empty({obs.size(0), pi_.act_dim}, obs.options());
+    auto log_std = torch::empty_like(mean);
+    for (size_t k = 0; k < task_rows.size(); ++k) {
+      const auto& idx = task_rows[k];
+      if (idx.numel() == 0) continue;
+      mean.index_copy_(0, idx, pi_.mean(params[k], obs.index_select(0, idx)));
+      log_std.index_copy_(0, idx, pi_.log_std(params[k]).expand({idx.numel(), pi_.act_dim}));
+    }
+    return {mean, log_std};
+  }
+
+  // the step's reward, plus gamma V(last observation) where the time limit cut the episode
+  torch::Tensor bootstrapped(const rl::Transition& t) {
+    auto r = t.reward.to(torch::kFloat32).clone();
+    if (t.final_ids.numel() > 0)
+      r.index_add_(0, t.final_ids,
+                   c_.gamma * critic_->forward(t.final_obs).squeeze(-1).to(torch::kFloat32));
+    return r;
+  }
+
+  // `steps` adaptation steps from `params` on one task's rows
+  std::vector<torch::Tensor> adapt(const std::vector<torch::Tensor>& params, const Batch& b,
+                                   int steps, bool create_graph) const {
+    if (!promp_)
+      return inner_steps(pi_, params, b.obs, b.actions, b.advantages, c_.inner_lr, steps,
+                         create_graph);
+    std::vector<torch::Tensor> p = params;
+    for (int i = 0; i < steps; ++i) p = lvc_inner_step(pi_, p, b, c_.inner_lr, create_graph);
+    return p;
+  }
+
+  // Each task's adapted parameters from the pre-adaptation rollout (acting only: no graph);
+  // keeps its advantages and returns for the outer update.
+  std::vector<std::vector<torch::Tensor>> adapt_from_pre(const torch::Tensor& obs) {
+    const auto last = critic_->forward(obs).squeeze(-1);
+    std::tie(pre_adv_, pre_ret_) =
+        rl::gae(pre_.rewards, pre_.values, pre_.dones, last, c_.gamma, c_.lambda);
+    std::vector<std::vector<torch::Tensor>> out;
+    torch::AutoGradMode grad_on(true);
+    for (const auto& idx : task_rows_) {
+      Batch b{rows(pre_.obs, idx), rows(pre_.actions, idx), normalised(rows(pre_adv_, idx)),
+              rows(pre_.logp, idx)};
+      out.push_back(detached(adapt(detached(theta()), b, c_.inner_steps, false)));
+    }
+    return out;
+  }
+
+  GradientMetaConfig c_;
+  bool promp_;
+  int64_t N_;
+  torch::Device device_;
+  FunctionalGaussian pi_;  // the architecture; params_ holds the meta-parameters
+  Params params_{nullptr};
+  torch::nn::Sequential critic_{nullptr};
+  std::unique_ptr<torch::optim::Adam> opt_;
+  torch::Tensor eta_;  // ProMP's KL coefficient, [1] float64 on the CPU (checkpointed)
+  std::vector<torch::Tensor> task_rows_;
+  Phase pre_, post_;
+  torch::Tensor pre_adv_, pre_ret_;
+  std::vector<std::vector<torch::Tensor>> adapted_;
+  int64_t t_ = 0;
+  // evaluation
+  std::vector<torch::Tensor> eval_rows_;
+  std::vector<std::vector<torch::Tensor>> eval_adapted_;
+  std::vector<EvalStep> eval_;
+};
+
+std::unique_ptr<rl::Algorithm> make(const rl::TrainConfig& config, bool promp, int64_t D,
+                                    int64_t A, int64_t N, const torch::Device& device) {
+  const auto section = YamlView::load_string(config.section_yaml, config.algo + " section");
+  return std::make_unique<GradientMeta>(read_gradient_meta(section, promp), promp, D, A, N,
+                                        config.seed, device);
+}
+
+}  // namespace
+
+std::unique_ptr<rl::Algorithm> make_maml(const rl::TrainConfig& config, int64_t obs_dim,
+                                         int64_t act_dim, int64_t nslot,
+                                         const torch::Device& device) {
+  return make(config, false, obs_dim, act_dim, nslot, device);
+}
+
+std::unique_ptr<rl::Algorithm> make_promp(const rl::TrainConfig& config, int64_t obs_dim,
+                                          int64_t act_dim, int64_t nslot,
+                                          const torch::Device& device) {
+  return make(config, true, obs_dim, act_dim, nslot, device);
+}
+
+}  // namespace bidex::metarl
