@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -254,21 +255,30 @@ void add_train_command(CLI::App& app) {
         // unknown algorithm: the error lists the known ones
         const bool on_suite = rl::find_algorithm(algo).trains_on == rl::TrainsOn::kSuite;
         if (on_suite && o->suite.empty())
-          throw Error("train: --algo " + algo + " trains on a suite: give --suite (MT1, MT4, MT20)");
-        std::string suite_algos;  // "--algo mtppo or --algo mttrpo"
-        for (auto& a : rl::algorithm_registry())
-          if (a.trains_on == rl::TrainsOn::kSuite)
-            suite_algos += (suite_algos.empty() ? "--algo " : " or --algo ") + a.name;
+          throw Error("train: --algo " + algo + " trains on a suite: give --suite (" +
+                      (rl::find_algorithm(algo).meta ? "ML1, ML1-goals, ML4, ML20, ML1-raise-goals"
+                                                     : "MT1, MT4, MT20") + ")");
+        // "--algo mtppo or --algo mttrpo": the multi-task ones, or the meta-RL ones
+        auto suite_algos = [](bool meta) {
+          std::string s;
+          for (auto& a : rl::algorithm_registry())
+            if (a.trains_on == rl::TrainsOn::kSuite && a.meta == meta)
+              s += (s.empty() ? "--algo " : " or --algo ") + a.name;
+          return s;
+        };
         if (!on_suite && o->task.empty())
           throw Error("train: --algo " + algo + " trains on one task: give --task, or use " +
-                      suite_algos + " for a suite");
+                      suite_algos(false) + " for a multi-task suite, " + suite_algos(true) +
+                      " for a meta-learning suite");
         if (!o->task.empty()) tasks::find_task(o->task);  // unknown id: lists the known ones
         if (!o->suite.empty()) {
           const taskpack::Suite su = taskpack::load_suite(o->suite);  // unknown: lists them
-          if (su.mode != taskpack::PackMode::kMultiTask)
+          const bool meta = rl::find_algorithm(algo).meta;
+          if (!meta && su.mode != taskpack::PackMode::kMultiTask)
             throw Error("train: suite " + o->suite + " is a meta-learning suite (goal slices "
-                        "masked, no task id); " + suite_algos +
-                        " train the multi-task suites (MT1, MT4, MT20)");
+                        "masked, no task id): " + suite_algos(true) + " meta-train on its train "
+                        "split; " + suite_algos(false) + " train the multi-task suites (MT1, MT4, "
+                        "MT20)");
         }
         const std::string file = o->config.empty() ? rl::default_train_config(algo) : o->config;
         const std::string target = o->suite.empty() ? o->task : o->suite;
@@ -302,12 +312,103 @@ void add_train_command(CLI::App& app) {
   });
 }
 
+// bidex eval --run DIR --split train|test: meta-RL's protocol (rl::evaluate_meta), printed per
+// task, stored in the registry that recorded the run, and written to --json.
+template <class Opts>
+void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
+  if (!o.task.empty() || !o.suite.empty() || o.set_reference || !o.task_config.empty())
+    throw Error("eval: --task, --suite, --task-config and --set-reference go with --random");
+  const std::string split = o.split.empty() ? "test" : o.split;
+  const rl::MetaEvalResult r = rl::evaluate_meta(policy, split, o.episodes, o.adapt_episodes,
+                                                 o.adapt_steps, o.seed, o.threads);
+  const auto& c = policy.config();
+  std::printf("%s, %s split, checkpoint %s (update %lld): %d episode(s) per task; adaptation "
+              "from %d episode(s) per slot, %d step(s)\n",
+              c.suite.c_str(), split.c_str(), policy.checkpoint().c_str(),
+              static_cast<long long>(policy.update()), o.episodes, r.adapt_episodes,
+              r.adapt_steps);
+  std::optional<registry::Registry> reg;
+  if (!o.no_registry) reg.emplace(o.registry.empty() ? registry::default_path() : o.registry);
+  std::printf("%-20s %-22s %16s %16s %10s\n", "task", "id", "return before", "return after",
+              "norm after");
+  nlohmann::json per = nlohmann::json::array();
+  for (auto& e : r.per_task) {
+    std::optional<double> norm;
+    if (reg) norm = reg->normalised(e.task, e.return_after);
+    std::printf("%-20s %-22s %16s %16s %10s\n", e.label.c_str(), e.task.c_str(),
+                num(e.return_before).c_str(), num(e.return_after).c_str(),
+                norm ? num(*norm, "%.3f").c_str() : "-");
+    per.push_back({{"label", e.label}, {"task", e.task}, {"episodes", e.episodes},
+                   {"return_before", e.return_before}, {"return_after", e.return_after},
+                   {"success_before", e.success_before}, {"success_after", e.success_after},
+                   {"normalised_after", norm ? nlohmann::json(*norm) : nlohmann::json()}});
+  }
+  std::printf("mean: return %s -> %s, success %.3f -> %.3f, faults %lld\n",
+              num(r.return_before).c_str(), num(r.return_after).c_str(), r.success_before,
+              r.success_after, static_cast<long long>(r.faults));
+  int64_t eval_id = 0;
+  if (reg) {
+    if (auto run = reg->run_by_dir(absolute(o.run))) {
+      registry::Evaluation ev;
+      ev.run_id = run->id;
+      ev.split = split;
+      ev.adapt_episodes = r.adapt_episodes;
+      ev.adapt_steps = r.adapt_steps;
+      ev.seed = o.seed;
+      ev.checkpoint = policy.checkpoint();
+      for (auto& e : r.per_task) {
+        registry::AdaptScore a;
+        a.task = e.task;
+        a.label = e.label;
+        a.return_before = e.return_before;
+        a.return_after = e.return_after;
+        a.success_before = e.success_before;
+        a.success_after = e.success_after;
+        a.episodes = e.episodes;
+        ev.scores.push_back(a);
+      }
+      eval_id = reg->add_evaluation(ev);
+      std::printf("registry %s: evaluation %lld of run %lld (bidex registry evals --run %lld; "
+                  "bidex registry report age --eval %lld)\n",
+                  reg->path().c_str(), static_cast<long long>(eval_id),
+                  static_cast<long long>(run->id), static_cast<long long>(run->id),
+                  static_cast<long long>(eval_id));
+    } else {
+      std::printf("registry %s: run %s is not recorded there (trained with --no-registry or "
+                  "another --registry); the evaluation is not stored\n",
+                  reg->path().c_str(), o.run.c_str());
+    }
+  }
+  if (!o.json.empty()) {
+    nlohmann::json j = {{"run", o.run},
+                        {"suite", c.suite},
+                        {"algo", c.algo},
+                        {"split", split},
+                        {"checkpoint", policy.checkpoint()},
+                        {"update", policy.update()},
+                        {"episodes_per_task", o.episodes},
+                        {"adapt_episodes", r.adapt_episodes},
+                        {"adapt_steps", r.adapt_steps},
+                        {"return_before", r.return_before},
+                        {"return_after", r.return_after},
+                        {"success_before", r.success_before},
+                        {"success_after", r.success_after},
+                        {"faults", r.faults},
+                        {"per_task", per},
+                        {"registry_evaluation", eval_id},
+                        {"seed", o.seed},
+                        {"code_version", code_version()},
+                        {"command", command_line()}};
+    write_file_atomic(o.json, j.dump(2) + "\n");
+  }
+}
+
 void add_eval_command(CLI::App& app) {
   struct Opts {
-    std::string run, checkpoint, json, task, suite, task_config, registry;
-    int episodes = 100, threads = 0;
+    std::string run, checkpoint, json, task, suite, task_config, registry, split;
+    int episodes = 100, threads = 0, adapt_episodes = 1, adapt_steps = 1;
     uint64_t seed = 12345;
-    bool random = false, set_reference = false;
+    bool random = false, set_reference = false, no_registry = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -331,16 +432,30 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Seed of the evaluation episodes")->capture_default_str();
   cmd->add_option("--threads", o->threads, "Threads (0: all cores)");
   cmd->add_option("--json", o->json, "Also write the result as JSON to this file");
+  auto* split = cmd->add_option(
+      "--split", o->split,
+      "Meta-RL runs (maml, promp, rl2): the suite's split to adapt to, train or test (default "
+      "test). Each task is scored before and after adaptation; --episodes slots per task");
+  cmd->add_option("--adapt-episodes", o->adapt_episodes,
+                  "Meta-RL: episodes per slot that adaptation learns from")
+      ->check(CLI::Range(1, 1000))->capture_default_str()->needs(split);
+  cmd->add_option("--adapt-steps", o->adapt_steps,
+                  "Meta-RL: gradient steps of adaptation (MAML, ProMP; RL^2 adapts in memory)")
+      ->check(CLI::Range(0, 1000))->capture_default_str()->needs(split);
+  cmd->add_flag("--no-registry", o->no_registry,
+                "Meta-RL: do not store the evaluation in the run's registry");
   cmd->footer("Examples:\n"
               "  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200\n"
-              "  bidex eval --random --task hand_over --episodes 1000 --set-reference");
+              "  bidex eval --random --task hand_over --episodes 1000 --set-reference\n"
+              "  bidex eval --run runs/ML1-promp-20261124-070000-s0 --split test --adapt-episodes 2");
   cmd->callback([o] {
     rl::EvalResult r;
     std::string what, checkpoint, target;
     int64_t update = 0;
     if (o->random) {
-      if (!o->run.empty() || !o->checkpoint.empty())
-        throw Error("eval: --random evaluates a random policy on --task or --suite, not a run");
+      if (!o->run.empty() || !o->checkpoint.empty() || !o->split.empty())
+        throw Error("eval: --random evaluates a random policy on --task or --suite, not a run "
+                    "(--split adapts a meta-RL run: give --run)");
       if (o->task.empty() == o->suite.empty())
         throw Error("eval: --random needs one of --task ID and --suite ID");
       rl::TrainConfig c;
@@ -356,6 +471,11 @@ void add_eval_command(CLI::App& app) {
       if (!o->task.empty() || !o->suite.empty() || o->set_reference || !o->task_config.empty())
         throw Error("eval: --task, --suite, --task-config and --set-reference go with --random");
       rl::LoadedPolicy policy(o->run, o->checkpoint);
+      if (!o->split.empty() || policy.adaptive()) {  // meta-RL's protocol
+        eval_meta(*o, policy);
+        return;
+      }
+      if (o->no_registry) throw Error("eval: --no-registry goes with meta-RL runs (--split)");
       r = rl::evaluate(policy, o->episodes, o->seed, o->threads);
       target = policy.config().target();
       what = target;
