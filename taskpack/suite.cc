@@ -15,7 +15,7 @@
 namespace bidex::taskpack {
 
 std::vector<std::string> known_suites() {
-  return {"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals"};
+  return {"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals", "ML1-raise-goals"};
 }
 
 namespace {

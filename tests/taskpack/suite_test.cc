@@ -61,7 +61,7 @@ std::string suites_dir() { return sim::data_dir() + "/configs/suites"; }
 
 TEST_CASE("every suite file loads and matches the canonical table", "[taskpack][suite]") {
   CHECK(taskpack::known_suites() ==
-        Names{"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals"});
+        Names{"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals", "ML1-raise-goals"});
   std::map<std::string, Suite> s;
   for (const auto& id : taskpack::known_suites()) {
     INFO("suite " << id);
