@@ -419,7 +419,7 @@ void add_eval_command(CLI::App& app) {
   cmd->add_flag("--random", o->random,
                 "Evaluate a random policy (actions uniform in [-1, 1]) on --task or --suite");
   cmd->add_option("--task", o->task, "Task id (with --random)");
-  cmd->add_option("--suite", o->suite, "Suite id or file (with --random): each task of its train split");
+  cmd->add_option("--suite", o->suite, "Suite id or file (with --random): each task of its train split (or --split)");
   cmd->add_option("--task-config", o->task_config, "Task YAML (with --random --task; default: the task's own)");
   cmd->add_flag("--set-reference", o->set_reference,
                 "With --random: store each task's mean return as its 'random' reference score in "
@@ -435,7 +435,8 @@ void add_eval_command(CLI::App& app) {
   auto* split = cmd->add_option(
       "--split", o->split,
       "Meta-RL runs (maml, promp, rl2): the suite's split to adapt to, train or test (default "
-      "test). Each task is scored before and after adaptation; --episodes slots per task");
+      "test); each task is scored before and after adaptation, --episodes slots per task (per "
+      "goal of a goal distribution). With --random --suite: the split to play (default train)");
   cmd->add_option("--adapt-episodes", o->adapt_episodes,
                   "Meta-RL: episodes per slot that adaptation learns from")
       ->check(CLI::Range(1, 1000))->capture_default_str()->needs(split);
@@ -453,9 +454,8 @@ void add_eval_command(CLI::App& app) {
     std::string what, checkpoint, target;
     int64_t update = 0;
     if (o->random) {
-      if (!o->run.empty() || !o->checkpoint.empty() || !o->split.empty())
-        throw Error("eval: --random evaluates a random policy on --task or --suite, not a run "
-                    "(--split adapts a meta-RL run: give --run)");
+      if (!o->run.empty() || !o->checkpoint.empty())
+        throw Error("eval: --random evaluates a random policy on --task or --suite, not a run");
       if (o->task.empty() == o->suite.empty())
         throw Error("eval: --random needs one of --task ID and --suite ID");
       rl::TrainConfig c;
@@ -463,7 +463,10 @@ void add_eval_command(CLI::App& app) {
       c.suite = o->suite;
       c.task_config = o->task_config;
       if (!c.task.empty()) tasks::find_task(c.task);
-      r = rl::evaluate_random(c, o->episodes, o->seed, o->threads);
+      if (!o->split.empty() && c.suite.empty())
+        throw Error("eval: --split picks a suite's split: give --suite (or --run of a meta-RL run)");
+      r = rl::evaluate_random(c, o->episodes, o->seed, o->threads,
+                              o->split.empty() ? "train" : o->split);
       target = c.target();
       what = target + ", random policy";
     } else {

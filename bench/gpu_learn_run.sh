@@ -15,6 +15,10 @@
 #       trains (or resumes the run of an earlier call) for SECONDS more, then writes the curve and
 #       the wall time and slot-steps at which the mean training return first reached TARGET;
 #       TASK may name a suite (MT1, MT4, MT20); results go to OUTDIR/TASK-ALGO (ALGO default ppo)
+#   bench/gpu_learn_run.sh meta OUTDIR SUITE ALGO SLOTS SECONDS EPISODES [-o key=value ...]
+#       meta-trains ALGO (maml, promp, rl2) on SUITE's train split for SECONDS, then evaluates the
+#       run on both splits (bidex eval --split train|test, EPISODES slots per task, on the CPU)
+#       and a random policy on both; results go to OUTDIR/SUITE-ALGO
 # Results go to OUTDIR with the machine, date, commit ($BIDEX_COMMIT) and commands. The run
 # folders stay on the machine under /tmp/bidex-gpu-runs. BIDEX_GPU_BUILD: the build folder.
 set -uo pipefail
@@ -172,8 +176,30 @@ print(json.dumps(out, indent=1))
 PY
   echo "train: ${SECONDS}s"
   ;;
+meta)
+  out=$(realpath -m "${1:?OUTDIR}"); suite=${2:?SUITE}; algo=${3:?ALGO}; slots=${4:?SLOTS}
+  budget=${5:?SECONDS}; episodes=${6:?EPISODES}
+  shift 6
+  name="$suite-$algo"
+  mkdir -p "$out/$name" "$runs"
+  run="$runs/$name-$slots"
+  reg="$runs/registry.sqlite"
+  args=(train --suite "$suite" --algo "$algo" --device cuda -o env.slots="$slots" --run "$run"
+        --registry "$reg" --time-limit "$budget" "$@")
+  "$bidex" "${args[@]}" 2>"$out/$name/progress.log" | tee -a "$out/$name/train.txt"
+  echo "bidex ${args[*]}" >>"$out/$name/commands.txt"
+  cp "$run"/{config.yaml,run.json,metrics.csv,learning_curve.svg,summary.json} "$out/$name/"
+  for split in train test; do
+    eargs=(eval --run "$run" --split "$split" --episodes "$episodes" --registry "$reg"
+           --json "$out/$name/eval-$split.json")
+    "$bidex" "${eargs[@]}" | tee -a "$out/$name/eval.txt"
+    echo "bidex ${eargs[*]}" >>"$out/$name/commands.txt"
+    stamp "$out/$name/eval-$split.json" "bidex ${eargs[*]}"
+  done
+  echo "meta: ${SECONDS}s"
+  ;;
 *)
-  echo "unknown stage $stage (build, pack, profile, collect or train)" >&2
+  echo "unknown stage $stage (build, pack, profile, collect, train or meta)" >&2
   exit 2
   ;;
 esac

@@ -97,6 +97,21 @@ taskpack::PackSpec run_pack(const TrainConfig& c, int slots, const std::string& 
   return p;
 }
 
+// The pack of evaluation: `per_task` slots per entry of the split (a task run: its task), or with
+// `per_goal` per goal of an entry's goal distribution.
+taskpack::PackSpec split_pack(const TrainConfig& c, const std::string& split, int per_task,
+                              bool per_goal) {
+  size_t entries = 1;
+  if (!c.suite.empty()) {
+    const taskpack::Suite su = taskpack::load_suite(c.suite);
+    entries = std::max(su.train.size(), su.test.size());
+  }
+  taskpack::PackSpec ps = run_pack(c, per_task * static_cast<int>(entries), split);
+  for (auto& e : ps.entries)
+    e.slots = per_task * (per_goal ? std::max<int>(1, static_cast<int>(e.goals.size())) : 1);
+  return ps;
+}
+
 // Meta-RL trains on a meta suite's train split and is evaluated on its held-out test split; a
 // multi-task suite has none (its test split is its train split).
 void check_meta_suite(const taskpack::Suite& suite, const std::string& where) {
@@ -653,28 +668,25 @@ EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threa
   });
 }
 
-EvalResult evaluate_random(const TrainConfig& c, int episodes, uint64_t seed, int threads) {
+EvalResult evaluate_random(const TrainConfig& c, int episodes, uint64_t seed, int threads,
+                           const std::string& split) {
   std::mt19937_64 rng(seed ^ 0x5DEECE66Dull);
-  return evaluate_actions(c, episodes, seed, threads, [&rng](const taskpack::TaskPack& env) {
+  auto make = [&rng](const taskpack::TaskPack& env) -> Actor {
     const int A = env.act_dim();
     return [&rng, A](const float*, int n, float* act) {
       for (int64_t i = 0; i < int64_t(n) * A; ++i)
         act[i] = static_cast<float>(sim::uniform(rng, -1, 1));
     };
-  });
+  };
+  return evaluate_actions(c, episodes, seed, threads, make, split);
 }
 
 EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, int threads,
-                            const ActorFactory& make_actor) {
+                            const ActorFactory& make_actor, const std::string& split) {
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;
-  // `episodes` slots per task of a suite
-  const int entries =
-      c.suite.empty() ? 1 : static_cast<int>(taskpack::load_suite(c.suite).train.size());
-  taskpack::PackSpec ps = run_pack(c, episodes * entries);
-  for (auto& e : ps.entries) e.slots = episodes;
-  taskpack::TaskPack env(ps, po);
+  taskpack::TaskPack env(split_pack(c, split, episodes, false), po);
   const Actor actor = make_actor(env);
   env.reset();
   const int n = env.nslot();
@@ -750,9 +762,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
     throw Error("meta evaluation: --episodes and --adapt-episodes must be >= 1 and "
                 "--adapt-steps >= 0 (got " + std::to_string(episodes) + ", " +
                 std::to_string(adapt_episodes) + ", " + std::to_string(adapt_steps) + ")");
-  taskpack::PackSpec ps = run_pack(c, 1, split);
-  for (auto& e : ps.entries)  // `episodes` slots per task: per goal of a goal distribution
-    e.slots = episodes * std::max<int>(1, static_cast<int>(e.goals.size()));
+  const taskpack::PackSpec ps = split_pack(c, split, episodes, true);
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;

@@ -106,14 +106,16 @@ EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threa
 
 // The same with actions uniform in [-1, 1] (a random policy, drawn from `seed`): the reference
 // "random" score of a task or suite. Only the config's task or suite (and task_config) are used.
-EvalResult evaluate_random(const TrainConfig& config, int episodes, uint64_t seed, int threads);
+// `split` (train or test) picks a suite's split.
+EvalResult evaluate_random(const TrainConfig& config, int episodes, uint64_t seed, int threads,
+                           const std::string& split = "train");
 
 // The same with any actor: `make_actor` sees the pack once and returns the function that maps
 // n observation rows to n action rows.
 using Actor = std::function<void(const float* obs, int n, float* actions)>;
 using ActorFactory = std::function<Actor(const taskpack::TaskPack&)>;
 EvalResult evaluate_actions(const TrainConfig& config, int episodes, uint64_t seed, int threads,
-                            const ActorFactory& make_actor);
+                            const ActorFactory& make_actor, const std::string& split = "train");
 
 // One task of a meta-RL evaluation: the mean return and success rate of one episode per slot
 // before adaptation (the meta-learned policy's deterministic action) and after it.
