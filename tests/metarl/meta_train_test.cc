@@ -242,8 +242,9 @@ TEST_CASE("meta-RL refuses suites without a held-out test split, unknown splits 
 
 // On ML1-raise-goals's held-out goals, with promp.yaml's per-suite defaults (92,160 slot-steps,
 // about 30 s on two cores): after meta-training, one adaptation episode per slot and one step
-// lift the return by 2.1-2.3 over seeds 0-3 (bench/results/learning-meta-2core.txt); the bar is
-// half of the smallest. (Before meta-training, the same protocol gains 0.3-1.3.)
+// lift the return by 2.08-2.32 over seeds 0-3; after a single update (before meta-training has
+// done anything) the same protocol lifts it by 0.30-1.48 (bench/results/
+// learning-meta-promp-2core.json). The bar, 1.5, is above every gain without meta-training.
 TEST_CASE("ProMP meta-learns ML1-raise-goals: adaptation lifts held-out goals' return",
           "[metarl][learning]") {
   metarl::register_algorithms();
@@ -257,5 +258,5 @@ TEST_CASE("ProMP meta-learns ML1-raise-goals: adaptation lifts held-out goals' r
   const auto e = rl::evaluate_meta(policy, "test", 16, 1, 1, 12345, 0);
   INFO("before " << e.return_before << ", after " << e.return_after);
   CHECK(e.faults == 0);
-  CHECK(e.return_after > e.return_before + 1.0);
+  CHECK(e.return_after > e.return_before + 1.5);
 }

@@ -1,0 +1,59 @@
+#!/usr/bin/env python3
+"""The meta-RL table beside the original's: for each suite and algorithm of a results folder
+(bench/gpu_learn_run.sh meta: SUITE-ALGO/eval-{train,test}.json) and the random policy's
+random-SUITE-{train,test}.json (bidex eval --random --suite S --split P --json), the mean return
+before and after adaptation per split, next to the seed paper's ProMP, random and single-task
+ground truth. Writes DIR/table.md and DIR/summary.json.
+Usage: bench/meta_table.py DIR"""
+import json
+import os
+import sys
+
+# the seed paper's meta-RL table: train / test mean returns
+ORIGINAL = {
+    "promp": {"ML1": (0.95, 1.2), "ML4": (2.5, 0.5), "ML20": (0.02, 0.36)},
+    "random": {"ML1": (0.59, 0.68), "ML4": (1.5, 0.24), "ML20": (-2.9, 0.27)},
+    "ground_truth": {"ML1": (15.0, 15.8), "ML4": (28.0, 13.1), "ML20": (33.7, 26.1)},
+}
+
+
+def load(path):
+    return json.load(open(path)) if os.path.exists(path) else None
+
+
+def main(d):
+    suites = ["ML1", "ML4", "ML20"]
+    algos = sorted({n.split("-", 1)[1] for n in os.listdir(d)
+                    if os.path.isdir(os.path.join(d, n)) and "-" in n})
+    rows, summary = [], {"what": __doc__.split("\n")[0], "original": ORIGINAL, "runs": []}
+    fmt = lambda v: "-" if v is None else f"{v:.3g}"
+    for s in suites:
+        rnd = {p: load(os.path.join(d, f"random-{s}-{p}.json")) for p in ("train", "test")}
+        rows.append(f"| {s} | random (ours) | {fmt(rnd['train'] and rnd['train']['mean_return'])}"
+                    f" | {fmt(rnd['test'] and rnd['test']['mean_return'])} | | |")
+        for k in ("random", "promp", "ground_truth"):
+            tr, te = ORIGINAL[k][s]
+            rows.append(f"| {s} | {k} (original) | {tr} | {te} | | |")
+        for a in algos:
+            ev = {p: load(os.path.join(d, f"{s}-{a}", f"eval-{p}.json")) for p in ("train", "test")}
+            run = load(os.path.join(d, f"{s}-{a}", "summary.json"))
+            if not any(ev.values()):
+                continue
+            after = {p: ev[p] and ev[p]["return_after"] for p in ev}
+            before = {p: ev[p] and ev[p]["return_before"] for p in ev}
+            rows.append(f"| {s} | {a} (ours) | {fmt(after['train'])} | {fmt(after['test'])} | "
+                        f"{fmt(before['train'])} | {fmt(before['test'])} |")
+            summary["runs"].append({
+                "suite": s, "algo": a,
+                "slot_steps": run and run["steps"], "wall_s": run and run["wall_s"],
+                "train": ev["train"], "test": ev["test"],
+                "random": {p: rnd[p] and rnd[p]["mean_return"] for p in rnd}})
+    table = ["| suite | policy | train (after) | test (after) | train (before) | test (before) |",
+             "|---|---|---|---|---|---|"] + rows
+    open(os.path.join(d, "table.md"), "w").write("\n".join(table) + "\n")
+    json.dump(summary, open(os.path.join(d, "summary.json"), "w"), indent=2)
+    print("\n".join(table))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
