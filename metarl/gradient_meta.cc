@@ -24,8 +24,11 @@ namespace {
 // The meta-parameters as a module: Adam steps them and checkpoints hold them.
 struct ParamsImpl : torch::nn::Module {
   explicit ParamsImpl(const std::vector<torch::Tensor>& init) {
-    for (size_t i = 0; i < init.size(); ++i)
-      list.push_back(register_parameter("p" + std::to_string(i), init[i].detach().clone()));
+    for (size_t i = 0; i < init.size(); ++i) {
+      std::string name = "p";  // built with append: GCC 12 -O3 misfires on "p" + std::string
+      name.append(std::to_string(i));
+      list.push_back(register_parameter(name, init[i].detach().clone()));
+    }
   }
   std::vector<torch::Tensor> list;
 };

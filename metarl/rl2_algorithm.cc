@@ -88,6 +88,7 @@ class Rl2Algorithm final : public rl::Algorithm, public rl::Adaptive {
   }
 
   void adapt(int) override {}
+  bool takes_steps() const override { return false; }
 
  private:
   torch::Tensor step(const torch::Tensor& obs, bool sample) {

@@ -45,6 +45,8 @@ class Adaptive {
   // Adapts each task from the steps kept since begin(): `steps` gradient steps (MAML, ProMP);
   // RL^2's memory adapts as it acts, and this does nothing.
   virtual void adapt(int steps) = 0;
+  // Whether adapt() takes gradient steps (false: the adaptation is in memory, RL^2).
+  virtual bool takes_steps() const { return true; }
 };
 
 class Algorithm {

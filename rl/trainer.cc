@@ -782,7 +782,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
   MetaEvalResult r;
   r.split = split;
   r.adapt_episodes = adapt_episodes;
-  r.adapt_steps = adapt_steps;
+  r.adapt_steps = adapt->takes_steps() ? adapt_steps : 0;  // RL^2: none, whatever was asked
   // Runs every slot from a reset until it has finished `count` episodes; returns each slot's
   // first episode's unscaled return and success.
   auto phase = [&](bool explore, int count, std::vector<double>* ret, std::vector<uint8_t>* succ) {

@@ -127,7 +127,7 @@ struct AdaptScore {
 
 struct MetaEvalResult {
   std::string split;
-  int adapt_episodes = 0, adapt_steps = 0;
+  int adapt_episodes = 0, adapt_steps = 0;  // adapt_steps 0 where adaptation is in memory
   std::vector<AdaptScore> per_task;  // one per entry of the split (a goal distribution: one)
   double return_before = 0, return_after = 0, success_before = 0, success_after = 0;  // means
   int64_t faults = 0;

@@ -113,6 +113,7 @@ TEST_CASE("meta runs stop, resume from their checkpoints and adapt at evaluation
     REQUIRE(r.per_task.size() == 1);
     CHECK(r.per_task[0].label == "test_goals");
     CHECK(r.per_task[0].episodes == 2 * 4);  // 2 slots per held-out goal
+    CHECK(r.adapt_steps == (std::string(algo) == "rl2" ? 0 : 1));  // RL^2 adapts in memory
     CHECK(std::isfinite(r.return_before));
     CHECK(std::isfinite(r.return_after));
     CHECK(r.faults == 0);
