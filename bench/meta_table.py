@@ -5,6 +5,7 @@ random-SUITE-{train,test}.json (bidex eval --random --suite S --split P --json),
 before and after adaptation per split, next to the seed paper's ProMP, random and single-task
 ground truth. Writes DIR/table.md and DIR/summary.json.
 Usage: bench/meta_table.py DIR"""
+import csv
 import json
 import os
 import sys
@@ -19,6 +20,15 @@ ORIGINAL = {
 
 def load(path):
     return json.load(open(path)) if os.path.exists(path) else None
+
+
+def last_row(d, name):
+    """steps and wall_s of a run's last metrics row (when its summary.json is missing)"""
+    path = os.path.join(d, name, "metrics.csv")
+    if not os.path.exists(path):
+        return None
+    rows = list(csv.DictReader(open(path)))
+    return rows and {"steps": int(float(rows[-1]["steps"])), "wall_s": float(rows[-1]["wall_s"])}
 
 
 def main(d):
@@ -36,13 +46,14 @@ def main(d):
             rows.append(f"| {s} | {k} (original) | {tr} | {te} | | |")
         for a in algos:
             ev = {p: load(os.path.join(d, f"{s}-{a}", f"eval-{p}.json")) for p in ("train", "test")}
-            run = load(os.path.join(d, f"{s}-{a}", "summary.json"))
+            run = load(os.path.join(d, f"{s}-{a}", "summary.json")) or last_row(d, f"{s}-{a}")
             if not any(ev.values()):
                 continue
             after = {p: ev[p] and ev[p]["return_after"] for p in ev}
             before = {p: ev[p] and ev[p]["return_before"] for p in ev}
-            rows.append(f"| {s} | {a} (ours) | {fmt(after['train'])} | {fmt(after['test'])} | "
-                        f"{fmt(before['train'])} | {fmt(before['test'])} |")
+            steps = f"{run['steps'] / 1e6:.1f}M" if run else "-"
+            rows.append(f"| {s} | {a} (ours, {steps} slot-steps) | {fmt(after['train'])} | "
+                        f"{fmt(after['test'])} | {fmt(before['train'])} | {fmt(before['test'])} |")
             summary["runs"].append({
                 "suite": s, "algo": a,
                 "slot_steps": run and run["steps"], "wall_s": run and run["wall_s"],
