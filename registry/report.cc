@@ -96,6 +96,12 @@ AgeReport age_report(const Registry& reg, const std::string& suite, int64_t run)
   if (run > 0) {
     const auto r = reg.run(run);
     if (!r) throw Error(sql::cat(reg.path(), ": no run with id ", std::to_string(run)));
+    // a meta-RL run that has been evaluated: its newest evaluation on the test split (else on
+    // the train split), after adaptation
+    const auto evals = reg.evaluations(run);
+    for (const std::string split : {"test", "train"})
+      for (auto it = evals.rbegin(); it != evals.rend(); ++it)
+        if (it->split == split) return age_report_evaluation(reg, it->id);
     rep.rows = run_rows(reg, *r);
     if (rep.rows.empty())
       throw Error(sql::cat(reg.path(), ": run ", std::to_string(run),

@@ -31,9 +31,11 @@ struct AgeReport {
   std::vector<AgeRow> rows;           // by age (age_min, age_max, task id, label)
 };
 
-// Which scores: those of `run` (> 0), else of the latest run of `suite` that recorded scores
-// (non-empty), else for every registered task the latest run that scored it (its row empty when
-// none has). An unknown run, or a suite without a scored run, is an Error.
+// Which scores: those of `run` (> 0; a meta-RL run with evaluations: its newest test-split
+// evaluation after adaptation, else its newest train-split one, as age_report_evaluation), else
+// of the latest run of `suite` that recorded scores (non-empty), else for every registered task
+// the latest run that scored it (its row empty when none has). An unknown run, or a suite
+// without a scored run, is an Error.
 AgeReport age_report(const Registry& reg, const std::string& suite = "", int64_t run = 0);
 
 // The after-adaptation scores of meta-RL evaluation `evaluation_id` (Registry::add_evaluation):

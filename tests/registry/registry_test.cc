@@ -913,8 +913,13 @@ TEST_CASE("the age report of an evaluation: the scores after adaptation, normali
   CHECK(*rt.rows[0].normalised == Approx(0.5));
   CHECK(*rt.rows[0].success == 1.0);
 
-  // the run's own report is not the evaluation's: the run recorded no scores
-  CHECK_THROWS_AS(registry::age_report(reg, "", run), Error);
+  // the run's report (report age --run) is its newest test-split evaluation's, after adaptation
+  const auto by_run = registry::age_report(reg, "", run);
+  CHECK(by_run.source == rt.source);
+  REQUIRE(by_run.rows.size() == 1);
+  CHECK(*by_run.rows[0].normalised == Approx(0.5));
+  // a run without evaluations reports its own scores (run 1 recorded none: an error)
+  CHECK_THROWS_AS(registry::age_report(reg, "", 1), Error);
   CHECK_THAT(error_of([&] { registry::age_report_evaluation(reg, 77); }),
              Catch::Contains("no evaluation with id 77"));
   registry::Evaluation empty = t;
