@@ -1,5 +1,6 @@
 // bidex render: a picture of a task's initial scene, or the frames (and an MP4 when ffmpeg is
 // installed) of one episode of a trained policy, drawn headless by MuJoCo's renderer.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -18,6 +19,8 @@
 #include "core/error.h"
 #include "rl/trainer.h"
 #include "sim/render.h"
+#include "taskpack/pack.h"
+#include "taskpack/suite.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
 
@@ -59,7 +62,7 @@ int run_program(const std::vector<std::string>& args) {
 
 void add_render_command(CLI::App& app) {
   struct Opts {
-    std::string task, out, config, run, checkpoint;
+    std::string task, out, config, run, checkpoint, split, entry;
     int width = 800, height = 600, max_frames = 1000, fps = 30;
     uint64_t seed = 1;
     double azimuth = NAN, elevation = NAN, distance = NAN;
@@ -90,27 +93,75 @@ void add_render_command(CLI::App& app) {
   cmd->add_option("--azimuth", o->azimuth, "Camera azimuth, degrees (default: framing view)");
   cmd->add_option("--elevation", o->elevation, "Camera elevation, degrees (negative: from above)");
   cmd->add_option("--distance", o->distance, "Camera distance, metres");
+  cmd->add_option("--entry", o->entry,
+                  "With --run of a suite run: the suite entry (task label) to show (default: the "
+                  "split's first)");
+  cmd->add_option("--split", o->split,
+                  "With --run of a suite run: train or test (default train; a meta-RL run shows "
+                  "its policy before adaptation)");
   cmd->footer("Examples:\n  bidex render --task catch_underarm --out catch_underarm.png\n"
-              "  bidex render --run runs/hand_over-ppo-20261122-120000-s0 --out frames/");
+              "  bidex render --run runs/hand_over-ppo-20261122-120000-s0 --out frames/\n"
+              "  bidex render --run runs/mt4 --entry hand_over --out frames/");
   cmd->callback([o] {
     if (o->run.empty() == o->task.empty())
       throw Error("render: give exactly one of --task ID (a scene) and --run DIR (an episode)");
     if (!o->run.empty()) {
       rl::LoadedPolicy policy(o->run, o->checkpoint);
-      tasks::EnvOptions eo;
-      eo.nslot = 1;
-      eo.threads = 1;
-      eo.seed = o->seed;
-      tasks::TaskEnv env(tasks::make_task(policy.config().task, policy.config().task_config), eo);
-      env.reset();
+      const rl::TrainConfig& c = policy.config();
+      // the run's own pack, one slot per entry (a task run: its task alone), so that the policy
+      // sees the rows it was trained on (padding, one-hot ids, masked goals); one entry is drawn
+      taskpack::PackSpec ps;
+      if (c.suite.empty()) {
+        if (!o->entry.empty() || !o->split.empty())
+          throw Error("render: --entry and --split go with a suite run; " + o->run +
+                      " trained on task " + c.task);
+        ps.name = c.task;
+        taskpack::PackEntry e;
+        e.task = e.label = c.task;
+        e.config = c.task_config;
+        ps.entries.push_back(e);
+      } else {
+        const taskpack::Suite suite = taskpack::load_suite(c.suite);
+        const std::string split = o->split.empty() ? "train" : o->split;
+        ps = taskpack::suite_pack(suite, split,
+                                  static_cast<int>(std::max(suite.train.size(), suite.test.size())));
+        for (auto& e : ps.entries) e.slots = 1;
+      }
+      int g = 0;
+      if (!o->entry.empty()) {
+        std::string labels;
+        g = -1;
+        for (int i = 0; i < static_cast<int>(ps.entries.size()); ++i) {
+          const auto& e = ps.entries[i];
+          const std::string label = e.label.empty() ? e.task : e.label;
+          if (label == o->entry) g = i;
+          labels += (labels.empty() ? "" : ", ") + label;
+        }
+        if (g < 0)
+          throw ConfigError("--entry", "entry", "an entry of " + c.suite + " (" + labels + ")",
+                            "'" + o->entry + "'");
+      }
+      taskpack::PackOptions po;
+      po.threads = 1;
+      po.seed = o->seed;
+      taskpack::TaskPack pack(ps, po);
+      if (pack.obs_dim() != policy.obs_dim() || pack.act_dim() != policy.act_dim())
+        throw Error("checkpoint " + policy.checkpoint() + " has observations " +
+                    std::to_string(policy.obs_dim()) + " and actions " +
+                    std::to_string(policy.act_dim()) + "; " + c.target() + " now has " +
+                    std::to_string(pack.obs_dim()) + " and " + std::to_string(pack.act_dim()));
+      pack.reset();
+      tasks::TaskEnv& env = pack.group(g);
+      const int slot = pack.group_begin(g);
       sim::RenderOptions ro;
       ro.width = o->width;
       ro.height = o->height;
-      ro.camera = sim::framing_camera(env.model(), env.batch().data(0), double(o->width) / o->height);
+      ro.camera =
+          sim::framing_camera(env.model(), env.batch().data(0), double(o->width) / o->height);
       if (!std::isnan(o->azimuth)) ro.camera.azimuth_deg = o->azimuth;
       if (!std::isnan(o->elevation)) ro.camera.elevation_deg = o->elevation;
       if (!std::isnan(o->distance)) ro.camera.distance = o->distance;
-      std::vector<float> act(env.act_dim());
+      std::vector<float> act(size_t(pack.nslot()) * pack.act_dim());
       double ret = 0;
       int frame = 0;
       auto write = [&] {
@@ -121,18 +172,18 @@ void add_render_command(CLI::App& app) {
       write();
       bool success = false;
       while (frame < o->max_frames) {
-        policy.act(env.obs.data(), 1, act.data());
-        env.step(act);
-        ret += env.reward[0];
-        const bool done = env.terminated[0] || env.truncated[0];
+        policy.act(pack.obs.data(), pack.nslot(), act.data());
+        pack.step(act);
+        ret += env.reward[0];  // unscaled: the task's own reward
+        const bool done = pack.terminated[slot] || pack.truncated[slot];
         if (done) {  // the last frame shows the state the episode ended in
-          success = env.success[0];
+          success = pack.success[slot];
           break;
         }
         write();
       }
       std::printf("wrote %d frames to %s (%s, checkpoint %s): return %.4g, success %d\n", frame,
-                  o->out.c_str(), policy.config().task.c_str(), policy.checkpoint().c_str(), ret,
+                  o->out.c_str(), pack.label(g).c_str(), policy.checkpoint().c_str(), ret,
                   int(success));
       const std::string ffmpeg = find_on_path("ffmpeg");
       if (ffmpeg.empty()) {

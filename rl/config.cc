@@ -230,7 +230,8 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     replay_common(p, o);
     o.epochs = positive(p, "epochs", 1);
     o.act_noise = real(p, "act_noise", 0, 10, false);
-    o.preact_l2 = real(p, "preact_l2", 0, 1e3, false);
+    // absent from run configs written before it existed: 0, the plain actor loss
+    o.preact_l2 = p.has("preact_l2") ? real(p, "preact_l2", 0, 1e3, false) : 0.0;
     o.twin = td3;
     if (td3) {
       o.target_noise = real(p, "target_noise", 0, 10, false);

@@ -112,6 +112,15 @@ TEST_CASE("TD3 and DDPG runs stop, resume from their checkpoints and evaluate", 
     const auto e = rl::evaluate(p, 4, 3, 1);
     CHECK(e.episodes == 4);
     CHECK(std::isfinite(e.mean_return));
+    CHECK(p.config().td3.preact_l2 == 1.0);  // catch_underarm_raise's per-task default
+    // a run written before preact_l2 existed still loads, with the plain actor loss
+    std::string cfg = read_file(dir + "/config.yaml");
+    const size_t at = cfg.find("  preact_l2:");
+    REQUIRE(at != std::string::npos);
+    cfg.erase(at, cfg.find('\n', at) + 1 - at);
+    write_file_atomic(dir + "/config.yaml", cfg);
+    rl::LoadedPolicy old(dir);
+    CHECK(old.config().td3.preact_l2 == 0.0);
   }
 }
 

@@ -310,6 +310,29 @@ TEST_CASE("bidex render --run writes the frames of one episode of the trained po
   CHECK(both.out.find("exactly one of --task") != std::string::npos);
 }
 
+TEST_CASE("bidex render --run of a suite run draws the chosen entry with the run's rows",
+          "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run"), frames = tmp.file("frames");
+  rl::train_new(test::tiny_onpolicy_yaml("mtppo", "MT4", {"env.slots=8"}), dir, test::quiet());
+  auto r = test::bidex_run("render --run " + dir + " --entry two_catch_underarm --out " + frames +
+                           " --max-frames 2 --width 64 --height 48");
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK(r.out.find("wrote 2 frames to " + frames + " (two_catch_underarm") != std::string::npos);
+  CHECK(test::file_exists(frames + "/frame_00001.png"));
+  // an unknown entry names the suite's; --entry on a task run is refused
+  auto bad = test::bidex_run("render --run " + dir + " --entry nope --out " + frames);
+  CHECK(bad.rc == 2);
+  CHECK(bad.out.find("catch_underarm, hand_over, catch_abreast, two_catch_underarm") !=
+        std::string::npos);
+  const std::string task_dir = tmp.file("task");
+  rl::train_new(test::tiny_yaml("catch_underarm_raise"), task_dir, test::quiet());
+  auto on_task = test::bidex_run("render --run " + task_dir + " --entry x --out " + frames);
+  CHECK(on_task.rc == 2);
+  CHECK(on_task.out.find("go with a suite run") != std::string::npos);
+}
+
 TEST_CASE("value normalisation trains, is saved and loads with the checkpoint", "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
