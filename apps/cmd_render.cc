@@ -123,8 +123,8 @@ void add_render_command(CLI::App& app) {
       } else {
         const taskpack::Suite suite = taskpack::load_suite(c.suite);
         const std::string split = o->split.empty() ? "train" : o->split;
-        ps = taskpack::suite_pack(suite, split,
-                                  static_cast<int>(std::max(suite.train.size(), suite.test.size())));
+        const size_t entries = std::max(suite.train.size(), suite.test.size());
+        ps = taskpack::suite_pack(suite, split, static_cast<int>(entries));
         for (auto& e : ps.entries) e.slots = 1;
       }
       int g = 0;
@@ -145,11 +145,7 @@ void add_render_command(CLI::App& app) {
       po.threads = 1;
       po.seed = o->seed;
       taskpack::TaskPack pack(ps, po);
-      if (pack.obs_dim() != policy.obs_dim() || pack.act_dim() != policy.act_dim())
-        throw Error("checkpoint " + policy.checkpoint() + " has observations " +
-                    std::to_string(policy.obs_dim()) + " and actions " +
-                    std::to_string(policy.act_dim()) + "; " + c.target() + " now has " +
-                    std::to_string(pack.obs_dim()) + " and " + std::to_string(pack.act_dim()));
+      policy.check_fits(pack, c.target() + " now");
       pack.reset();
       tasks::TaskEnv& env = pack.group(g);
       const int slot = pack.group_begin(g);

@@ -419,7 +419,8 @@ void add_eval_command(CLI::App& app) {
   cmd->add_flag("--random", o->random,
                 "Evaluate a random policy (actions uniform in [-1, 1]) on --task or --suite");
   cmd->add_option("--task", o->task, "Task id (with --random)");
-  cmd->add_option("--suite", o->suite, "Suite id or file (with --random): each task of its train split (or --split)");
+  cmd->add_option("--suite", o->suite,
+                  "Suite id or file (with --random): each task of its train split (or --split)");
   cmd->add_option("--task-config", o->task_config, "Task YAML (with --random --task; default: the task's own)");
   cmd->add_flag("--set-reference", o->set_reference,
                 "With --random: store each task's mean return as its 'random' reference score in "
@@ -448,7 +449,8 @@ void add_eval_command(CLI::App& app) {
   cmd->footer("Examples:\n"
               "  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200\n"
               "  bidex eval --random --task hand_over --episodes 1000 --set-reference\n"
-              "  bidex eval --run runs/ML1-promp-20261124-070000-s0 --split test --adapt-episodes 2");
+              "  bidex eval --run runs/ML1-promp-20261124-070000-s0 --split test "
+              "--adapt-episodes 2");
   cmd->callback([o] {
     rl::EvalResult r;
     std::string what, checkpoint, target;
@@ -464,7 +466,8 @@ void add_eval_command(CLI::App& app) {
       c.task_config = o->task_config;
       if (!c.task.empty()) tasks::find_task(c.task);
       if (!o->split.empty() && c.suite.empty())
-        throw Error("eval: --split picks a suite's split: give --suite (or --run of a meta-RL run)");
+        throw Error("eval: --split picks a suite's split: give --suite (or --run of a meta-RL "
+                    "run)");
       r = rl::evaluate_random(c, o->episodes, o->seed, o->threads,
                               o->split.empty() ? "train" : o->split);
       target = c.target();

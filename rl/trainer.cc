@@ -656,14 +656,17 @@ void LoadedPolicy::act(const float* obs, int n, float* actions) {
 
 Adaptive* LoadedPolicy::adaptive() { return impl_->algo->adaptive(); }
 
+void LoadedPolicy::check_fits(const taskpack::Pack& pack, const std::string& what) const {
+  if (pack.obs_dim() != obs_dim() || pack.act_dim() != act_dim())
+    throw Error("checkpoint " + checkpoint() + " has observations " + std::to_string(obs_dim()) +
+                " and actions " + std::to_string(act_dim()) + "; " + what + " has " +
+                std::to_string(pack.obs_dim()) + " and " + std::to_string(pack.act_dim()));
+}
+
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
   const auto& c = policy.config();
   return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
-    if (env.obs_dim() != policy.obs_dim() || env.act_dim() != policy.act_dim())
-      throw Error("checkpoint " + policy.checkpoint() + " has observations " +
-                  std::to_string(policy.obs_dim()) + " and actions " +
-                  std::to_string(policy.act_dim()) + "; " + c.target() + " now has " +
-                  std::to_string(env.obs_dim()) + " and " + std::to_string(env.act_dim()));
+    policy.check_fits(env, c.target() + " now");
     return [&policy](const float* obs, int n, float* act) { policy.act(obs, n, act); };
   });
 }
@@ -767,12 +770,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
   po.threads = threads;
   po.seed = seed;
   taskpack::TaskPack env(ps, po);
-  if (env.obs_dim() != policy.obs_dim() || env.act_dim() != policy.act_dim())
-    throw Error("checkpoint " + policy.checkpoint() + " has observations " +
-                std::to_string(policy.obs_dim()) + " and actions " +
-                std::to_string(policy.act_dim()) + "; the " + split + " split of " + c.suite +
-                " has " + std::to_string(env.obs_dim()) + " and " +
-                std::to_string(env.act_dim()));
+  policy.check_fits(env, "the " + split + " split of " + c.suite);
   torch::manual_seed(seed);
   const torch::Device cpu(torch::kCPU);
   auto collector = make_collector(env, cpu);

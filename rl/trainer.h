@@ -14,6 +14,7 @@
 #include "rl/config.h"
 
 namespace bidex::taskpack {
+class Pack;
 class TaskPack;
 }
 
@@ -86,6 +87,9 @@ class LoadedPolicy {
   void act(const float* obs, int n, float* actions);
   // Meta-RL's adaptation (algorithm.h); null when the run's algorithm does not adapt.
   Adaptive* adaptive();
+  // An Error unless `pack` (`what`, e.g. "the test split of ML4") has this checkpoint's
+  // observation and action widths.
+  void check_fits(const taskpack::Pack& pack, const std::string& what) const;
 
  private:
   struct Impl;

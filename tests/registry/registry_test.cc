@@ -133,8 +133,8 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.reference("hand_over", "random")->value == Approx(3.33431));
     CHECK(reg.reference("switch", "random")->value == Approx(8454.99));
 
-    // the suites of configs/suites (the paper's six and the goal distributions), with their members and
-    // reward scales
+    // the suites of configs/suites (the paper's six and the goal distributions), with their
+    // members and reward scales
     const auto suites = reg.suites();
     REQUIRE(suites.size() == taskpack::known_suites().size());
     for (auto& su : suites) {
