@@ -1,6 +1,5 @@
 // bidex render: a picture of a task's initial scene, or the frames (and an MP4 when ffmpeg is
 // installed) of one episode of a trained policy, drawn headless by MuJoCo's renderer.
-#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -20,7 +19,6 @@
 #include "rl/trainer.h"
 #include "sim/render.h"
 #include "taskpack/pack.h"
-#include "taskpack/suite.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
 
@@ -110,23 +108,11 @@ void add_render_command(CLI::App& app) {
       const rl::TrainConfig& c = policy.config();
       // the run's own pack, one slot per entry (a task run: its task alone), so that the policy
       // sees the rows it was trained on (padding, one-hot ids, masked goals); one entry is drawn
-      taskpack::PackSpec ps;
-      if (c.suite.empty()) {
-        if (!o->entry.empty() || !o->split.empty())
-          throw Error("render: --entry and --split go with a suite run; " + o->run +
-                      " trained on task " + c.task);
-        ps.name = c.task;
-        taskpack::PackEntry e;
-        e.task = e.label = c.task;
-        e.config = c.task_config;
-        ps.entries.push_back(e);
-      } else {
-        const taskpack::Suite suite = taskpack::load_suite(c.suite);
-        const std::string split = o->split.empty() ? "train" : o->split;
-        const size_t entries = std::max(suite.train.size(), suite.test.size());
-        ps = taskpack::suite_pack(suite, split, static_cast<int>(entries));
-        for (auto& e : ps.entries) e.slots = 1;
-      }
+      if (c.suite.empty() && (!o->entry.empty() || !o->split.empty()))
+        throw Error("render: --entry and --split go with a suite run; " + o->run +
+                    " trained on task " + c.task);
+      const taskpack::PackSpec ps = rl::eval_pack(c, o->split.empty() ? "train" : o->split, 1,
+                                                  false);
       int g = 0;
       if (!o->entry.empty()) {
         std::string labels;

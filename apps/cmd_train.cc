@@ -256,8 +256,7 @@ void add_train_command(CLI::App& app) {
         const bool on_suite = rl::find_algorithm(algo).trains_on == rl::TrainsOn::kSuite;
         if (on_suite && o->suite.empty())
           throw Error("train: --algo " + algo + " trains on a suite: give --suite (" +
-                      (rl::find_algorithm(algo).meta ? "ML1, ML1-goals, ML4, ML20, ML1-raise-goals"
-                                                     : "MT1, MT4, MT20") + ")");
+                      taskpack::known_suites_text(rl::find_algorithm(algo).meta) + ")");
         // "--algo mtppo or --algo mttrpo": the multi-task ones, or the meta-RL ones
         auto suite_algos = [](bool meta) {
           std::string s;
@@ -277,8 +276,8 @@ void add_train_command(CLI::App& app) {
           if (!meta && su.mode != taskpack::PackMode::kMultiTask)
             throw Error("train: suite " + o->suite + " is a meta-learning suite (goal slices "
                         "masked, no task id): " + suite_algos(true) + " meta-train on its train "
-                        "split; " + suite_algos(false) + " train the multi-task suites (MT1, MT4, "
-                        "MT20)");
+                        "split; " + suite_algos(false) + " train the multi-task suites (" +
+                        taskpack::known_suites_text(false) + ")");
         }
         const std::string file = o->config.empty() ? rl::default_train_config(algo) : o->config;
         const std::string target = o->suite.empty() ? o->task : o->suite;

@@ -46,6 +46,18 @@ torch::Tensor normalised(const torch::Tensor& a) {
   return a.numel() > 1 ? (a - a.mean()) / (a.std() + 1e-8) : a - a.mean();
 }
 
+// One task's rows of a rollout [T, N, ...]: the slots in `idx`, only the rows where `mask`
+// ([T x |idx|] bool) holds when it is given, the advantages normalised over them.
+Batch task_batch(const torch::Tensor& obs, const torch::Tensor& actions,
+                 const torch::Tensor& adv, const torch::Tensor& logp, const torch::Tensor& idx,
+                 const torch::Tensor& mask = {}) {
+  auto pick = [&](const torch::Tensor& x) {
+    auto r = rows(x, idx);
+    return mask.defined() ? r.index({mask}) : r;
+  };
+  return {pick(obs), pick(actions), normalised(pick(adv)), pick(logp)};
+}
+
 // One phase's rollout, [T, N, ...].
 struct Phase {
   torch::Tensor obs, actions, logp, values, rewards, dones;
@@ -63,7 +75,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
  public:
   GradientMeta(const GradientMetaConfig& c, bool promp, int64_t D, int64_t A, int64_t N,
                uint64_t seed, const torch::Device& device)
-      : c_(c), promp_(promp), N_(N), device_(device) {
+      : c_(c), promp_(promp), device_(device) {
     pi_ = FunctionalGaussian::init(D, c.hidden, A, c.activation, c.init_std, seed);
     params_ = Params(pi_.params);
     pi_.params.clear();  // params_ holds them
@@ -129,14 +141,10 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     }
     const std::vector<torch::Tensor> theta_old = detached(theta());
     const int K = static_cast<int>(task_rows_.size());
-    std::vector<Batch> pre_b(K), post_b(K);
-    for (int k = 0; k < K; ++k) {
-      const auto& idx = task_rows_[k];
-      pre_b[k] = {rows(pre_.obs, idx), rows(pre_.actions, idx), normalised(rows(pre_adv_, idx)),
-                  rows(pre_.logp, idx)};
-      post_b[k] = {rows(post_.obs, idx), rows(post_.actions, idx),
-                   normalised(rows(post_adv, idx)), rows(post_.logp, idx)};
-    }
+    const std::vector<Batch>& pre_b = pre_batches_;  // the adaptation's rows (adapt_from_pre)
+    std::vector<Batch> post_b;
+    for (const auto& idx : task_rows_)
+      post_b.push_back(task_batch(post_.obs, post_.actions, post_adv, post_.logp, idx));
     const auto all_obs = torch::cat({pre_.obs.flatten(0, 1), post_.obs.flatten(0, 1)});
     const auto all_ret = torch::cat({pre_ret_.flatten(), post_ret.flatten()});
     const double eta = eta_.item<double>();
@@ -231,6 +239,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     eval_rows_ = group_slots(slot_task, ntasks);
     eval_adapted_.assign(ntasks, detached(theta()));
     eval_.clear();
+    exploring_ = false;
   }
 
   torch::Tensor explore(const torch::Tensor& obs) override {
@@ -242,19 +251,20 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     s.actions = a;
     s.logp = rl::gaussian_log_prob(a, mean, log_std);
     eval_.push_back(s);
+    exploring_ = true;
     return a;
   }
 
   torch::Tensor exploit(const torch::Tensor& obs) override {
     torch::NoGradGuard ng;
-    eval_.push_back({});  // nothing to adapt from: the step's row stays out (keep is ignored)
+    exploring_ = false;  // nothing to adapt from: observe() keeps no row of this step
     return per_task(eval_adapted_, eval_rows_, obs).first.clamp(-1, 1);
   }
 
   void observe(const rl::Transition& t, const torch::Tensor& keep) override {
     torch::NoGradGuard ng;
+    if (!exploring_) return;
     EvalStep& s = eval_.back();
-    if (!s.obs.defined()) return;
     s.reward = bootstrapped(t);
     s.done = t.done;
     s.keep = keep.clone();
@@ -262,35 +272,30 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
 
   void adapt(int steps) override {
     std::vector<EvalStep> kept;
-    for (auto& s : eval_)
-      if (s.obs.defined() && s.reward.defined()) kept.push_back(s);
-    eval_.clear();
+    kept.swap(eval_);
     if (kept.empty() || steps == 0) return;
-    auto stack = [&](auto field) {
+    auto stack = [&](torch::Tensor EvalStep::*field) {
       std::vector<torch::Tensor> v;
-      for (auto& s : kept) v.push_back(field(s));
+      for (auto& s : kept) v.push_back(s.*field);
       return torch::stack(v);
     };
-    const auto obs = stack([](const EvalStep& s) { return s.obs; });
-    const auto actions = stack([](const EvalStep& s) { return s.actions; });
-    const auto logp = stack([](const EvalStep& s) { return s.logp; });
-    const auto rewards = stack([](const EvalStep& s) { return s.reward; });
-    const auto keep = stack([](const EvalStep& s) { return s.keep; });
+    const auto obs = stack(&EvalStep::obs);
+    const auto keep = stack(&EvalStep::keep);
     // a slot's rows end with its last kept episode's end: cut the recursion at every row that
     // is not kept, so that waiting steps add nothing
-    const auto dones = torch::maximum(stack([](const EvalStep& s) { return s.done; }), 1 - keep);
+    const auto dones = torch::maximum(stack(&EvalStep::done), 1 - keep);
     torch::Tensor adv;
     {
       torch::NoGradGuard ng;
       const auto values = critic_->forward(obs).squeeze(-1);
-      adv = rl::gae(rewards, values, dones, torch::zeros_like(values[0]), c_.gamma, c_.lambda)
+      adv = rl::gae(stack(&EvalStep::reward), values, dones, torch::zeros_like(values[0]),
+                    c_.gamma, c_.lambda)
                 .first;
     }
+    const auto actions = stack(&EvalStep::actions), logp = stack(&EvalStep::logp);
     for (size_t k = 0; k < eval_rows_.size(); ++k) {
       const auto& idx = eval_rows_[k];
-      const auto m = rows(keep, idx) > 0.5;
-      Batch b{rows(obs, idx).index({m}), rows(actions, idx).index({m}),
-              normalised(rows(adv, idx).index({m})), rows(logp, idx).index({m})};
+      const Batch b = task_batch(obs, actions, adv, logp, idx, rows(keep, idx) > 0.5);
       if (b.obs.size(0) == 0) continue;
       eval_adapted_[k] = detached(adapt(eval_adapted_[k], b, steps, false));
     }
@@ -350,24 +355,25 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
   }
 
   // Each task's adapted parameters from the pre-adaptation rollout (acting only: no graph);
-  // keeps its advantages and returns for the outer update.
+  // keeps each task's rows and the returns for the outer update.
   std::vector<std::vector<torch::Tensor>> adapt_from_pre(const torch::Tensor& obs) {
     const auto last = critic_->forward(obs).squeeze(-1);
-    std::tie(pre_adv_, pre_ret_) =
+    torch::Tensor adv;
+    std::tie(adv, pre_ret_) =
         rl::gae(pre_.rewards, pre_.values, pre_.dones, last, c_.gamma, c_.lambda);
+    pre_batches_.clear();
     std::vector<std::vector<torch::Tensor>> out;
     torch::AutoGradMode grad_on(true);
     for (const auto& idx : task_rows_) {
-      Batch b{rows(pre_.obs, idx), rows(pre_.actions, idx), normalised(rows(pre_adv_, idx)),
-              rows(pre_.logp, idx)};
-      out.push_back(detached(adapt(detached(theta()), b, c_.inner_steps, false)));
+      pre_batches_.push_back(task_batch(pre_.obs, pre_.actions, adv, pre_.logp, idx));
+      out.push_back(detached(adapt(detached(theta()), pre_batches_.back(), c_.inner_steps,
+                                   false)));
     }
     return out;
   }
 
   GradientMetaConfig c_;
   bool promp_;
-  int64_t N_;
   torch::Device device_;
   FunctionalGaussian pi_;  // the architecture; params_ holds the meta-parameters
   Params params_{nullptr};
@@ -376,13 +382,15 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
   torch::Tensor eta_;  // ProMP's KL coefficient, [1] float64 on the CPU (checkpointed)
   std::vector<torch::Tensor> task_rows_;
   Phase pre_, post_;
-  torch::Tensor pre_adv_, pre_ret_;
+  std::vector<Batch> pre_batches_;  // per task, from adapt_from_pre
+  torch::Tensor pre_ret_;
   std::vector<std::vector<torch::Tensor>> adapted_;
   int64_t t_ = 0;
   // evaluation
   std::vector<torch::Tensor> eval_rows_;
   std::vector<std::vector<torch::Tensor>> eval_adapted_;
-  std::vector<EvalStep> eval_;
+  std::vector<EvalStep> eval_;  // the exploration steps since begin()
+  bool exploring_ = false;      // the last action came from explore()
 };
 
 std::unique_ptr<rl::Algorithm> make(const rl::TrainConfig& config, bool promp, int64_t D,

@@ -149,15 +149,11 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     if (x < 0 || x != std::floor(x) || x > 9.0e15) s.fail("an integer >= 0", s.repr());
     c.seed = static_cast<uint64_t>(x);
   }
-  const auto positive = read_int;
-  const auto real = read_real;
-  const auto widths = read_widths;
-  const auto choice = read_choice;
   {
     auto e = v.child("env");
     e.allow_keys({"slots", "threads", "task_config"});
-    c.slots = positive(e, "slots", 1);
-    c.threads = positive(e, "threads", 0);
+    c.slots = read_int(e, "slots", 1);
+    c.threads = read_int(e, "threads", 0);
     c.task_config = e.req<std::string>("task_config");
     if (!c.suite.empty() && !c.task_config.empty())
       e.child("task_config").fail("\"\" for a suite run (each suite entry names its own task YAML)",
@@ -171,11 +167,11 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     const double x = s.as<double>();
     if (!(x >= 1) || x != std::floor(x) || x > 9.0e15) s.fail("an integer >= 1", s.repr());
     c.steps = static_cast<int64_t>(x);
-    c.save_interval = positive(t, "save_interval", 1);
-    c.keep_checkpoints = positive(t, "keep_checkpoints", 1);
-    c.plot_interval = positive(t, "plot_interval", 1);
-    c.device = choice(t, "device", {"auto", "cpu", "cuda"});
-    c.torch_threads = positive(t, "torch_threads", 0);
+    c.save_interval = read_int(t, "save_interval", 1);
+    c.keep_checkpoints = read_int(t, "keep_checkpoints", 1);
+    c.plot_interval = read_int(t, "plot_interval", 1);
+    c.device = read_choice(t, "device", {"auto", "cpu", "cuda"});
+    c.torch_threads = read_int(t, "torch_threads", 0);
     if (auto tf = t.maybe("tf32")) c.tf32 = tf->as<bool>();
   }
   // a family registered from outside rl reads its own section
@@ -192,17 +188,17 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       "hidden", "activation", "horizon", "minibatches", "batch_size", "replay_size",
       "lr",     "gamma",      "polyak",  "max_grad_norm", "reward_scale"};
   auto replay_common = [&](const YamlView& p, auto& o) {
-    o.hidden = widths(p.child("hidden"));
-    o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
-    o.horizon = positive(p, "horizon", 1);
-    o.minibatches = positive(p, "minibatches", 1);
-    o.batch_size = positive(p, "batch_size", 1);
-    o.replay_size = positive(p, "replay_size", 1);
-    o.lr = real(p, "lr", 0, 1, true);
-    o.gamma = real(p, "gamma", 0, 1, false);
-    o.polyak = real(p, "polyak", 0, 1, false);
-    o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
-    o.reward_scale = real(p, "reward_scale", 0, 1e6, true);
+    o.hidden = read_widths(p.child("hidden"));
+    o.activation = read_choice(p, "activation", {"elu", "relu", "tanh"});
+    o.horizon = read_int(p, "horizon", 1);
+    o.minibatches = read_int(p, "minibatches", 1);
+    o.batch_size = read_int(p, "batch_size", 1);
+    o.replay_size = read_int(p, "replay_size", 1);
+    o.lr = read_real(p, "lr", 0, 1, true);
+    o.gamma = read_real(p, "gamma", 0, 1, false);
+    o.polyak = read_real(p, "polyak", 0, 1, false);
+    o.max_grad_norm = read_real(p, "max_grad_norm", 0, 1e9, true);
+    o.reward_scale = read_real(p, "reward_scale", 0, 1e6, true);
     if (o.replay_size < c.slots)
       p.child("replay_size").fail("at least env.slots (" + std::to_string(c.slots) +
                                   ") transitions, one step of every slot",
@@ -215,7 +211,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     p.allow_keys(keys);
     auto& o = c.sac;
     replay_common(p, o);
-    o.init_alpha = real(p, "init_alpha", 0, 1e3, true);
+    o.init_alpha = read_real(p, "init_alpha", 0, 1e3, true);
     o.learn_alpha = p.req<bool>("learn_alpha");
     return c;
   }
@@ -228,15 +224,15 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     p.allow_keys(keys);
     auto& o = c.td3;
     replay_common(p, o);
-    o.epochs = positive(p, "epochs", 1);
-    o.act_noise = real(p, "act_noise", 0, 10, false);
+    o.epochs = read_int(p, "epochs", 1);
+    o.act_noise = read_real(p, "act_noise", 0, 10, false);
     // absent from run configs written before it existed: 0, the plain actor loss
-    o.preact_l2 = p.has("preact_l2") ? real(p, "preact_l2", 0, 1e3, false) : 0.0;
+    o.preact_l2 = p.has("preact_l2") ? read_real(p, "preact_l2", 0, 1e3, false) : 0.0;
     o.twin = td3;
     if (td3) {
-      o.target_noise = real(p, "target_noise", 0, 10, false);
-      o.noise_clip = real(p, "noise_clip", 0, 10, false);
-      o.policy_delay = positive(p, "policy_delay", 1);
+      o.target_noise = read_real(p, "target_noise", 0, 10, false);
+      o.noise_clip = read_real(p, "noise_clip", 0, 10, false);
+      o.policy_delay = read_int(p, "policy_delay", 1);
     } else {
       o.target_noise = 0;
       o.noise_clip = 0;
@@ -259,35 +255,35 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     keys.insert(keys.end(), own.begin(), own.end());
     p.allow_keys(keys);
     auto& o = c.ppo;
-    o.hidden = widths(p.child("hidden"));
-    o.activation = choice(p, "activation", {"elu", "relu", "tanh"});
-    o.init_std = real(p, "init_std", 0, 10, true);
-    o.horizon = positive(p, "horizon", 1);
-    o.epochs = positive(p, "epochs", 1);
-    o.minibatches = positive(p, "minibatches", 1);
-    o.lr = real(p, "lr", 0, 1, true);
-    o.gamma = real(p, "gamma", 0, 1, false);
-    o.lambda = real(p, "lambda", 0, 1, false);
-    o.max_grad_norm = real(p, "max_grad_norm", 0, 1e9, true);
-    o.value_coef = real(p, "value_coef", 0, 1e3, false);
+    o.hidden = read_widths(p.child("hidden"));
+    o.activation = read_choice(p, "activation", {"elu", "relu", "tanh"});
+    o.init_std = read_real(p, "init_std", 0, 10, true);
+    o.horizon = read_int(p, "horizon", 1);
+    o.epochs = read_int(p, "epochs", 1);
+    o.minibatches = read_int(p, "minibatches", 1);
+    o.lr = read_real(p, "lr", 0, 1, true);
+    o.gamma = read_real(p, "gamma", 0, 1, false);
+    o.lambda = read_real(p, "lambda", 0, 1, false);
+    o.max_grad_norm = read_real(p, "max_grad_norm", 0, 1e9, true);
+    o.value_coef = read_real(p, "value_coef", 0, 1e3, false);
     o.obs_norm = p.req<bool>("obs_norm");
     o.value_norm = p.req<bool>("value_norm");
     if (trpo) {
       auto& t = c.trpo;
-      t.max_kl = real(p, "max_kl", 0, 10, true);
-      t.damping = real(p, "damping", 0, 1e3, false);
-      t.cg_iters = positive(p, "cg_iters", 1);
-      t.backtracks = positive(p, "backtracks", 1);
-      t.accept_ratio = real(p, "accept_ratio", 0, 1, false);
-      t.step_fraction = real(p, "step_fraction", 0, 1, true);
+      t.max_kl = read_real(p, "max_kl", 0, 10, true);
+      t.damping = read_real(p, "damping", 0, 1e3, false);
+      t.cg_iters = read_int(p, "cg_iters", 1);
+      t.backtracks = read_int(p, "backtracks", 1);
+      t.accept_ratio = read_real(p, "accept_ratio", 0, 1, false);
+      t.step_fraction = read_real(p, "step_fraction", 0, 1, true);
       o.schedule = "fixed";  // the critic's Adam
     } else {
-      o.clip = real(p, "clip", 0, 1, true);
-      o.schedule = choice(p, "schedule", {"adaptive", "fixed"});
-      o.desired_kl = real(p, "desired_kl", 0, 10, true);
-      o.entropy_coef = real(p, "entropy_coef", 0, 1e3, false);
+      o.clip = read_real(p, "clip", 0, 1, true);
+      o.schedule = read_choice(p, "schedule", {"adaptive", "fixed"});
+      o.desired_kl = read_real(p, "desired_kl", 0, 10, true);
+      o.entropy_coef = read_real(p, "entropy_coef", 0, 1e3, false);
       o.clip_value_loss = p.req<bool>("clip_value_loss");
-      o.value_clip = real(p, "value_clip", 0, 1e3, true);
+      o.value_clip = read_real(p, "value_clip", 0, 1e3, true);
     }
   }
   if (c.batch() < c.ppo.minibatches) {

@@ -97,33 +97,18 @@ taskpack::PackSpec run_pack(const TrainConfig& c, int slots, const std::string& 
   return p;
 }
 
-// The pack of evaluation: `per_task` slots per entry of the split (a task run: its task), or with
-// `per_goal` per goal of an entry's goal distribution.
-taskpack::PackSpec split_pack(const TrainConfig& c, const std::string& split, int per_task,
-                              bool per_goal) {
-  size_t entries = 1;
-  if (!c.suite.empty()) {
-    const taskpack::Suite su = taskpack::load_suite(c.suite);
-    entries = std::max(su.train.size(), su.test.size());
-  }
-  taskpack::PackSpec ps = run_pack(c, per_task * static_cast<int>(entries), split);
-  for (auto& e : ps.entries)
-    e.slots = per_task * (per_goal ? std::max<int>(1, static_cast<int>(e.goals.size())) : 1);
-  return ps;
-}
-
 // Meta-RL trains on a meta suite's train split and is evaluated on its held-out test split; a
 // multi-task suite has none (its test split is its train split).
 void check_meta_suite(const taskpack::Suite& suite, const std::string& where) {
-  std::string why;
-  if (suite.mode != taskpack::PackMode::kMeta)
-    why = "a multi-task suite tests on its train tasks";
-  else if (suite.test.empty() || suite.test.front().label == suite.train.front().label)
-    why = "its test split is its train split";  // `test: train` (labels are unique otherwise)
-  if (!why.empty())
+  if (!suite.held_out())
     throw ConfigError(where, "suite",
-                      "a meta suite with a held-out test split (ML1, ML1-goals, ML4, ML20)",
-                      suite.id + " (no held-out test split: " + why + ")");
+                      "a meta suite with a held-out test split (" +
+                          taskpack::known_suites_text(true) + ")",
+                      suite.id + " (no held-out test split: " +
+                          (suite.mode == taskpack::PackMode::kMeta
+                               ? "its test split is its train split"
+                               : "a multi-task suite tests on its train tasks") +
+                          ")");
 }
 
 // Columns of metrics.csv: the run's own (steps, rates, episodes, returns; a task run has one
@@ -556,6 +541,19 @@ void write_run_json(const Session& s, const TrainOptions& opt, bool resumed) {
 
 }  // namespace
 
+taskpack::PackSpec eval_pack(const TrainConfig& c, const std::string& split, int per_task,
+                             bool per_goal) {
+  size_t entries = 1;
+  if (!c.suite.empty()) {
+    const taskpack::Suite su = taskpack::load_suite(c.suite);
+    entries = std::max(su.train.size(), su.test.size());
+  }
+  taskpack::PackSpec ps = run_pack(c, per_task * static_cast<int>(entries), split);
+  for (auto& e : ps.entries)
+    e.slots = per_task * (per_goal ? std::max<int>(1, static_cast<int>(e.goals.size())) : 1);
+  return ps;
+}
+
 std::string default_run_dir(const TrainConfig& c) {
   std::time_t t = std::time(nullptr);
   char buf[32];
@@ -689,7 +687,7 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;
-  taskpack::TaskPack env(split_pack(c, split, episodes, false), po);
+  taskpack::TaskPack env(eval_pack(c, split, episodes, false), po);
   const Actor actor = make_actor(env);
   env.reset();
   const int n = env.nslot();
@@ -765,7 +763,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
     throw Error("meta evaluation: --episodes and --adapt-episodes must be >= 1 and "
                 "--adapt-steps >= 0 (got " + std::to_string(episodes) + ", " +
                 std::to_string(adapt_episodes) + ", " + std::to_string(adapt_steps) + ")");
-  const taskpack::PackSpec ps = split_pack(c, split, episodes, true);
+  const taskpack::PackSpec ps = eval_pack(c, split, episodes, true);
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;

@@ -16,6 +16,7 @@
 namespace bidex::taskpack {
 class Pack;
 class TaskPack;
+struct PackSpec;
 }
 
 namespace bidex::rl {
@@ -68,6 +69,12 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
 
 // Continues the run in `run_dir` from its newest checkpoint, up to its configured steps.
 TrainResult train_resume(const std::string& run_dir, const TrainOptions& options);
+
+// The pack evaluation and render run a trained policy on: `per_task` slots per entry of the
+// `split` (train or test) of the run's suite, or its task alone (a task run; `split` unused);
+// with `per_goal`, `per_task` slots per goal of an entry's goal distribution.
+taskpack::PackSpec eval_pack(const TrainConfig& config, const std::string& split, int per_task,
+                             bool per_goal);
 
 // The default folder of a new run: runs/<task or suite>-<algo>-<YYYYmmdd-HHMMSS>-s<seed>.
 std::string default_run_dir(const TrainConfig& c);

@@ -155,6 +155,7 @@ Suite load_suite(const std::string& id_or_file) {
     const YamlView v = root.child("test");
     if (v.node().IsScalar() && v.node().as<std::string>() == "train") {
       s.test = s.train;
+      s.test_is_train = true;
     } else if (s.mode == PackMode::kMultiTask) {
       // the one-hot id of a slot is its train entry's index: a multi-task suite is tested on
       // exactly its train entries
@@ -212,6 +213,13 @@ PackSpec suite_pack(const Suite& suite, const std::string& split, int total_slot
     }
   p.one_hot = suite.mode == PackMode::kMultiTask ? static_cast<int>(suite.train.size()) : 0;
   return p;
+}
+
+std::string known_suites_text(bool held_out) {
+  std::vector<std::string> ids;
+  for (const auto& id : known_suites())
+    if (load_suite(id).held_out() == held_out) ids.push_back(id);
+  return join(ids);
 }
 
 }  // namespace bidex::taskpack

@@ -33,11 +33,17 @@ struct Suite {
   PackMode mode = PackMode::kMultiTask;
   std::vector<SuiteEntry> train;
   std::vector<SuiteEntry> test;   // multi-task suites: the train entries
+  bool test_is_train = false;      // `test: train`: no held-out tasks (every multi-task suite)
+  // Whether its test split holds tasks the train split does not (what meta-RL needs).
+  bool held_out() const { return mode == PackMode::kMeta && !test_is_train; }
   uint64_t goal_seed = 0;          // the goal distributions' stream (required with `goals`)
 };
 
 // The ids of the suite files under <data dir>/configs/suites, in the paper's order.
 std::vector<std::string> known_suites();
+// Those of them whose test split is held out (Suite::held_out, meta-RL's), or with `held_out`
+// false the others (the multi-task suites), for messages: "ML1, ML4, ...".
+std::string known_suites_text(bool held_out);
 // A suite by id ("MT4", looked up under configs/suites) or by path to a YAML file.
 Suite load_suite(const std::string& id_or_file);
 // The pack of one split ("train" or "test") with `total_slots` spread evenly over its entries

@@ -62,6 +62,9 @@ std::string suites_dir() { return sim::data_dir() + "/configs/suites"; }
 TEST_CASE("every suite file loads and matches the canonical table", "[taskpack][suite]") {
   CHECK(taskpack::known_suites() ==
         Names{"MT1", "ML1", "MT4", "ML4", "MT20", "ML20", "ML1-goals", "ML1-raise-goals"});
+  // meta-RL's suites hold test tasks out; the multi-task suites test on their train tasks
+  CHECK(taskpack::known_suites_text(true) == "ML1, ML4, ML20, ML1-goals, ML1-raise-goals");
+  CHECK(taskpack::known_suites_text(false) == "MT1, MT4, MT20");
   std::map<std::string, Suite> s;
   for (const auto& id : taskpack::known_suites()) {
     INFO("suite " << id);
