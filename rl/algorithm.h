@@ -74,6 +74,12 @@ class Algorithm {
   virtual void set_slot_tasks(const std::vector<int>& /*slot_task*/, int /*ntasks*/) {}
   // Meta-RL's evaluation protocol, after load_actor(); null for algorithms that do not adapt.
   virtual Adaptive* adaptive() { return nullptr; }
+  // What one update adds to the run's step count (the config's `steps`): the slot-steps it
+  // collected (nslot x steps_per_update()), or an offline algorithm's gradient steps.
+  virtual int64_t steps_counted(int64_t nslot) const { return nslot * steps_per_update(); }
+  // Called by the runner once before training starts or resumes (never for evaluation or
+  // rendering): an offline algorithm reads and checks its dataset (TrainConfig::dataset) here.
+  virtual void prepare_training() {}
 };
 
 using AlgorithmFactory = std::function<std::unique_ptr<Algorithm>(

@@ -13,8 +13,9 @@ class YamlView;
 
 namespace bidex::rl {
 
-// What an algorithm trains on.
-enum class TrainsOn { kTask, kSuite };
+// What an algorithm trains on: what it collects on a task or a suite's train split, or a dataset
+// of one task (offline: the pack only evaluates the policy as it learns).
+enum class TrainsOn { kTask, kSuite, kDataset };
 
 struct AlgorithmInfo {
   std::string name;   // --algo NAME; its defaults are configs/train/NAME.yaml

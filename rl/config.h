@@ -91,6 +91,7 @@ struct TrainConfig {
   std::string algo = "ppo";
   std::string task;               // a task run: the task id (suite empty)
   std::string suite;              // a suite run (mtppo): the suite id or file (task empty)
+  std::string dataset;            // a dataset run (offline): the dataset folder; task is its task
   uint64_t seed = 0;
   int slots = 2048;
   int threads = 0;
