@@ -20,6 +20,8 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/version.h"
+#include "offline/dataset.h"
+#include "offline/recorder.h"
 #include "registry/registry.h"
 #include "rl/algorithms.h"
 #include "rl/config.h"
@@ -77,6 +79,25 @@ std::string absolute(const std::string& path) {
   return out;
 }
 
+// Records the dataset at `path` in the registry (offline runs, bidex collect); its checksum.
+std::string record_dataset(registry::Registry& reg, const std::string& path) {
+  const offline::DatasetInfo d = offline::read_info(path);
+  registry::DatasetRecord r;
+  r.checksum = d.checksum;
+  r.dataset_id = d.dataset_id;
+  r.task = d.task;
+  r.quality = d.quality;
+  r.path = absolute(offline::dataset_dir(path));
+  r.total_steps = d.total_steps;
+  r.total_episodes = d.total_episodes;
+  if (std::isfinite(d.ref_min_score)) r.ref_min = d.ref_min_score;
+  if (std::isfinite(d.ref_max_score)) r.ref_max = d.ref_max_score;
+  r.policy = d.policy;
+  r.code_version = d.code_version;
+  reg.put_dataset(r);
+  return r.checksum;
+}
+
 // One run's row in the registry: created when the run folder is ready (its id kept in
 // <run>/registry.json, so that --resume updates the same row), completed when training ends.
 class RunRecorder {
@@ -109,6 +130,7 @@ class RunRecorder {
       rec_.code_version = code_version();
       rec_.run_dir = absolute(run_dir);
       rec_.status = "running";
+      if (!c.dataset.empty()) rec_.dataset = record_dataset(*reg_, c.dataset);
       id_ = reg_->begin_run(rec_);  // the registry fills in the host and the start time
       rec_ = *reg_->run(id_);
       nlohmann::json j = {{"registry", abs_reg}, {"run_id", id_}};
@@ -139,9 +161,15 @@ class RunRecorder {
     reg_->finish_run(id_, rec_, scores);
   }
 
-  // "normalised 0.42" (or why not) for a task's mean return.
+  // "normalised 0.42" (or why not) for a task's mean return; an offline run's against its
+  // dataset's references, on the paper's scale (random 0, online PPO 100).
   std::string normalised(const std::string& task, double mean_return) const {
     if (!reg_ || !std::isfinite(mean_return)) return "";
+    if (!rec_.dataset.empty()) {
+      auto n = reg_->offline_normalised(rec_.dataset, mean_return);
+      return n ? "normalised score " + num(*n, "%.1f") + " (random 0, online PPO 100)"
+               : "normalised score n/a (the dataset's task has no reference scores)";
+    }
     auto n = reg_->normalised(task, mean_return);
     return n ? "normalised " + num(*n, "%.3f") : "normalised n/a (no reference scores)";
   }
@@ -170,11 +198,19 @@ void print_scores(const rl::TrainResult& r, const RunRecorder& rec) {
                 rec.normalised(e.task, e.mean_return).c_str());
 }
 
+// "bc, bcq, td3bc, iql": the offline algorithms.
+std::string offline_names() {
+  std::string s;
+  for (auto& a : rl::algorithm_registry())
+    if (a.trains_on == rl::TrainsOn::kDataset) s += (s.empty() ? "" : ", ") + a.name;
+  return s;
+}
+
 void add_train_command(CLI::App& app) {
   struct Opts {
-    std::string task, suite, algo, config, run, resume, registry;
+    std::string task, suite, algo, config, run, resume, registry, dataset, replay;
     std::vector<std::string> overrides;
-    int64_t stop_after = 0;
+    int64_t stop_after = 0, replay_steps = 1000000;
     double time_limit = 0;
     bool no_registry = false, profile = false;
     std::string device = "auto";
@@ -192,6 +228,14 @@ void add_train_command(CLI::App& app) {
                   "mtppo with --suite");
   cmd->add_option("--config", o->config,
                   "Training defaults YAML (default: configs/train/<algo>.yaml)");
+  cmd->add_option("--dataset", o->dataset,
+                  "Offline algorithms (bc, bcq, td3bc, iql): the dataset to learn from (a folder "
+                  "of bidex collect, or its main_data.hdf5); its task is the run's");
+  cmd->add_option("--record-replay", o->replay,
+                  "Also write the run's first --replay-steps transitions as a replay dataset in "
+                  "this folder (a share of the slots, reaching the count about halfway through)");
+  cmd->add_option("--replay-steps", o->replay_steps, "Transitions of --record-replay")
+      ->check(CLI::PositiveNumber)->capture_default_str();
   cmd->add_option("--registry", o->registry,
                   "Registry file the run is recorded in (default: $BIDEX_REGISTRY, else "
                   "runs/registry.sqlite)");
@@ -227,6 +271,8 @@ void add_train_command(CLI::App& app) {
       "  bidex train --suite MT4 --algo mttrpo -o env.slots=256\n"
       "  bidex train --task hand_over --device cuda -o env.slots=16384   # on the GPU\n"
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
+      "  bidex train --algo td3bc --dataset datasets/hand_over/expert-v0\n"
+      "  bidex train --task hand_over --record-replay datasets/hand_over/replay-v0\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
   cmd->callback([o] {
     rl::TrainOptions to;
@@ -244,14 +290,38 @@ void add_train_command(CLI::App& app) {
     try {
       if (!o->resume.empty()) {
         if (!o->task.empty() || !o->suite.empty() || !o->overrides.empty() ||
-            !o->config.empty() || !o->run.empty() || !o->algo.empty())
+            !o->config.empty() || !o->run.empty() || !o->algo.empty() || !o->dataset.empty())
           throw Error("--resume continues a run with its own config.yaml: drop --task, --suite, "
-                      "--algo, --config, --run and -o");
+                      "--algo, --dataset, --config, --run and -o");
+        if (!o->replay.empty())
+          throw Error("--record-replay records a run's stream from its first step: it goes "
+                      "with a new run, not --resume");
         r = rl::train_resume(o->resume, to);
       } else {
+        std::string dataset;
+        if (!o->dataset.empty()) {
+          // the task comes from the dataset (checked against --task), before anything else
+          const offline::DatasetInfo d = offline::read_info(o->dataset);
+          if (!o->task.empty() && o->task != d.task)
+            throw ConfigError("--task", "task", "the dataset's task (" + d.task + ", " +
+                              o->dataset + ")", o->task);
+          if (!o->suite.empty())
+            throw Error("train: --dataset is of one task; drop --suite");
+          o->task = d.task;
+          dataset = absolute(offline::dataset_dir(o->dataset));
+        }
         if (o->task.empty() == o->suite.empty())
           throw Error("train: give one of --task ID and --suite ID (or --resume DIR)");
         const std::string algo = !o->algo.empty() ? o->algo : (o->suite.empty() ? "ppo" : "mtppo");
+        const bool offline_algo = rl::find_algorithm(algo).trains_on == rl::TrainsOn::kDataset;
+        if (offline_algo != !dataset.empty())
+          throw Error(offline_algo ? "train: --algo " + algo + " learns from a dataset: give "
+                                     "--dataset (bidex collect writes one)"
+                                   : "train: --dataset goes with an offline algorithm (" +
+                                         offline_names() + "); --algo " + algo +
+                                         " learns from what it collects");
+        if (!o->replay.empty()) to.recorder = offline::replay_recorder(o->replay, o->replay_steps,
+                                                                       command_line());
         // unknown algorithm: the error lists the known ones
         const bool on_suite = rl::find_algorithm(algo).trains_on == rl::TrainsOn::kSuite;
         if (on_suite && o->suite.empty())
@@ -281,7 +351,8 @@ void add_train_command(CLI::App& app) {
         }
         const std::string file = o->config.empty() ? rl::default_train_config(algo) : o->config;
         const std::string target = o->suite.empty() ? o->task : o->suite;
-        const std::string yaml = rl::resolve_train_yaml(file, algo, target, o->overrides);
+        const std::string yaml =
+            rl::resolve_train_yaml(file, algo, target, o->overrides, dataset);
         const rl::TrainConfig c = rl::parse_train_config(yaml, file);
         const std::string dir = o->run.empty() ? rl::default_run_dir(c) : o->run;
         r = rl::train_new(yaml, dir, to);

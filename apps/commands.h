@@ -9,6 +9,9 @@ class App;
 
 namespace bidex::apps {
 
+// `path` made absolute (realpath), or as given where it does not exist.
+std::string absolute(const std::string& path);
+
 // The command line this process was started with, for results files.
 const std::string& command_line();
 void set_command_line(int argc, char** argv);
@@ -21,6 +24,7 @@ void add_play_command(CLI::App& app);   // bidex play: run a task with random/ze
 void add_render_command(CLI::App& app); // bidex render: a task's scene, or a policy's episode
 void add_train_command(CLI::App& app);  // bidex train: PPO with a run folder, --resume
 void add_eval_command(CLI::App& app);   // bidex eval: a trained policy's return and success
+void add_collect_command(CLI::App& app);  // bidex collect: offline datasets
 void add_registry_command(CLI::App& app);  // bidex registry list|add-task|scores|reference|report
 
 }  // namespace bidex::apps

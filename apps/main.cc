@@ -38,6 +38,7 @@ int main(int argc, char** argv) {
   bidex::apps::add_render_command(app);
   bidex::apps::add_train_command(app);
   bidex::apps::add_eval_command(app);
+  bidex::apps::add_collect_command(app);
   bidex::apps::add_registry_command(app);
   try {
     app.parse(argc, argv);

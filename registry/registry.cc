@@ -35,6 +35,8 @@ using sql::WriteTxn;
 // suites (runs.suite), per-task scores of a run (run_scores), the source of each reference score.
 // Version 3: meta-RL evaluations of runs (evaluations) with each task's return and success before
 // and after adaptation (evaluation_scores).
+// Version 4: offline datasets (datasets: checksum, task, quality, reference scores) and the
+// dataset an offline run learned from (runs.dataset, its checksum).
 const char* const kMigrations[] = {
     // 0 -> 1
     R"sql(
@@ -141,6 +143,25 @@ CREATE TABLE evaluation_scores (
   position INTEGER NOT NULL,
   PRIMARY KEY (evaluation, label)
 );
+)sql",
+    // 3 -> 4
+    R"sql(
+CREATE TABLE datasets (
+  checksum TEXT PRIMARY KEY,
+  dataset_id TEXT NOT NULL,
+  task TEXT NOT NULL,
+  quality TEXT NOT NULL,
+  path TEXT NOT NULL,
+  total_steps INTEGER NOT NULL,
+  total_episodes INTEGER NOT NULL,
+  ref_min REAL,
+  ref_max REAL,
+  policy TEXT NOT NULL DEFAULT '',
+  code_version TEXT NOT NULL DEFAULT '',
+  added TEXT NOT NULL
+);
+CREATE INDEX datasets_task ON datasets(task);
+ALTER TABLE runs ADD COLUMN dataset TEXT NOT NULL DEFAULT '';
 )sql",
 };
 constexpr int kVersion = static_cast<int>(sizeof kMigrations / sizeof *kMigrations);
@@ -324,7 +345,7 @@ const char* const kTaskColumns =
 
 const char* const kRunColumns =
     "SELECT id, algo, task, suite, seed, steps, config_hash, code_version, run_dir, host, "
-    "started, finished, status, final_return, final_success FROM runs ";
+    "started, finished, status, final_return, final_success, dataset FROM runs ";
 RunRecord read_run(const Stmt& st) {
   RunRecord r;
   r.id = st.i64(0);
@@ -342,7 +363,28 @@ RunRecord read_run(const Stmt& st) {
   r.status = st.text(12);
   r.final_return = st.opt(13);
   r.final_success = st.opt(14);
+  r.dataset = st.text(15);
   return r;
+}
+
+const char* const kDatasetColumns =
+    "SELECT checksum, dataset_id, task, quality, path, total_steps, total_episodes, ref_min, "
+    "ref_max, policy, code_version, added FROM datasets ";
+DatasetRecord read_dataset(const Stmt& st) {
+  DatasetRecord d;
+  d.checksum = st.text(0);
+  d.dataset_id = st.text(1);
+  d.task = st.text(2);
+  d.quality = st.text(3);
+  d.path = st.text(4);
+  d.total_steps = st.i64(5);
+  d.total_episodes = st.i64(6);
+  d.ref_min = st.opt(7);
+  d.ref_max = st.opt(8);
+  d.policy = st.text(9);
+  d.code_version = st.text(10);
+  d.added = st.text(11);
+  return d;
 }
 
 const char* const kEvaluationColumns =
@@ -643,12 +685,12 @@ int64_t Registry::begin_run(const RunRecord& r) {
   WriteTxn txn(db_, path_);
   Stmt st(db_, path_,
           "INSERT INTO runs (algo, task, suite, seed, steps, config_hash, code_version, run_dir, "
-          "host, started, finished, status) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, '', "
-          "'running')");
+          "host, started, finished, status, dataset) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, "
+          "?10, '', 'running', ?11)");
   st.bind(1, r.algo).bind(2, r.task).bind(3, r.suite).bind(4, static_cast<int64_t>(r.seed));
   st.bind(5, r.steps).bind(6, r.config_hash).bind(7, r.code_version).bind(8, r.run_dir);
   st.bind(9, r.host.empty() ? host_name() : r.host);
-  st.bind(10, r.started.empty() ? utc_now() : r.started);
+  st.bind(10, r.started.empty() ? utc_now() : r.started).bind(11, r.dataset);
   st.run();
   const int64_t id = sqlite3_last_insert_rowid(db_);
   txn.commit();
@@ -839,6 +881,61 @@ std::optional<Reference> Registry::reference(const std::string& task,
   st.bind(1, task).bind(2, kind);
   if (!st.step()) return std::nullopt;
   return Reference{st.text(0), st.text(1), st.dbl(2), st.text(3)};
+}
+
+void Registry::put_dataset(const DatasetRecord& d) {
+  if (d.checksum.rfind("sha256:", 0) != 0 || d.task.empty())
+    throw Error(path_ + ": a dataset needs its checksum (sha256:HEX) and task (got " +
+                in_quotes(d.checksum) + ", " + in_quotes(d.task) + ")");
+  WriteTxn txn(db_, path_);
+  Stmt st(db_, path_,
+          "INSERT OR REPLACE INTO datasets (checksum, dataset_id, task, quality, path, "
+          "total_steps, total_episodes, ref_min, ref_max, policy, code_version, added) VALUES "
+          "(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12)");
+  st.bind(1, d.checksum).bind(2, d.dataset_id).bind(3, d.task).bind(4, d.quality);
+  st.bind(5, d.path).bind(6, d.total_steps).bind(7, d.total_episodes).bind(8, d.ref_min);
+  st.bind(9, d.ref_max).bind(10, d.policy).bind(11, d.code_version);
+  st.bind(12, d.added.empty() ? utc_now() : d.added);
+  st.run();
+  txn.commit();
+}
+
+std::vector<DatasetRecord> Registry::datasets() const {
+  std::string q = kDatasetColumns;
+  q.append("ORDER BY task, quality, added");
+  std::vector<DatasetRecord> out;
+  Stmt st(db_, path_, q.c_str());
+  while (st.step()) out.push_back(read_dataset(st));
+  return out;
+}
+
+std::optional<DatasetRecord> Registry::dataset(const std::string& checksum) const {
+  std::string q = kDatasetColumns;
+  q.append("WHERE checksum = ?1");
+  Stmt st(db_, path_, q.c_str());
+  st.bind(1, checksum);
+  if (!st.step()) return std::nullopt;
+  return read_dataset(st);
+}
+
+std::optional<double> Registry::offline_normalised(const std::string& checksum,
+                                                   double mean_return) const {
+  const auto d = dataset(checksum);
+  if (!d) return std::nullopt;
+  std::optional<double> lo = d->ref_min, hi = d->ref_max;
+  if (!lo || !hi) {  // a replay dataset has none of its own: its task's, from the newest with both
+    std::string q = kDatasetColumns;
+    q.append("WHERE task = ?1 AND ref_min IS NOT NULL AND ref_max IS NOT NULL "
+             "ORDER BY added DESC LIMIT 1");
+    Stmt st(db_, path_, q.c_str());
+    st.bind(1, d->task);
+    if (!st.step()) return std::nullopt;
+    const DatasetRecord other = read_dataset(st);
+    lo = other.ref_min;
+    hi = other.ref_max;
+  }
+  if (*hi == *lo) return std::nullopt;
+  return 100.0 * (mean_return - *lo) / (*hi - *lo);
 }
 
 std::optional<double> Registry::normalised(const std::string& task, double mean_return) const {

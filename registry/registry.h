@@ -61,6 +61,17 @@ struct RunRecord {
   std::string started, finished;      // UTC ISO-8601; finished empty while running
   std::string status;                 // running | finished | stopped | failed
   std::optional<double> final_return, final_success;
+  std::string dataset;                // an offline run: its dataset's checksum (datasets), else empty
+};
+
+// A dataset an offline run learned from, or bidex collect wrote (offline/dataset.h).
+struct DatasetRecord {
+  std::string checksum;               // "sha256:" + hex of its main_data.hdf5: the key
+  std::string dataset_id, task, quality, path;
+  int64_t total_steps = 0, total_episodes = 0;
+  std::optional<double> ref_min, ref_max;  // the random and the expert return (0 and 100)
+  std::string policy, code_version;
+  std::string added;                  // UTC ISO-8601; empty: now
 };
 
 // Mean return and success of one task (a suite run has one per member, a task run one).
@@ -141,6 +152,16 @@ class Registry {
   // add_evaluation got them.
   std::vector<Evaluation> evaluations(int64_t run_id = 0) const;
   std::optional<Evaluation> evaluation(int64_t id) const;
+
+  // Records a dataset (insert, or replace the row of the same checksum: its path, say). A
+  // checksum that is not "sha256:..." or an empty task is an Error.
+  void put_dataset(const DatasetRecord& d);
+  std::vector<DatasetRecord> datasets() const;  // by task, quality, then time added
+  std::optional<DatasetRecord> dataset(const std::string& checksum) const;
+  // The offline normalised score of a return on a dataset, as the paper's table: 100 x (return -
+  // ref_min) / (ref_max - ref_min), with the dataset's references, or where it has none (a
+  // replay dataset) those of the newest dataset of its task that has both; empty when none does.
+  std::optional<double> offline_normalised(const std::string& checksum, double mean_return) const;
 
   void set_reference(const Reference& r);  // insert or replace (task, kind)
   std::vector<Reference> references() const;    // by task, then kind

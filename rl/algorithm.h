@@ -23,6 +23,9 @@ struct Transition {
   torch::Tensor done;       // [N] 1 where the episode ended at this step, either way
   torch::Tensor final_ids;  // [K] long: slots whose episode the time limit cut (not faulted)
   torch::Tensor final_obs;  // [K, D] their last observation, for bootstrapping
+  // Only from a collector in record mode (make_collector, datasets), else undefined:
+  torch::Tensor truncated;  // [N] 1 where the time limit cut the episode and the slot did not fault
+  torch::Tensor end_obs;    // [N, D] where done: the episode's last observation (other rows: any)
 };
 
 // Meta-RL's evaluation (bidex eval --split): the policy adapts to each slot's task from what it
@@ -69,6 +72,9 @@ class Algorithm {
   virtual void load_actor(torch::serialize::InputArchive& root, const std::string& path) = 0;
   // The deterministic actions [n, A] in [-1, 1] for observations [n, D] (evaluation, render).
   virtual torch::Tensor actor(const torch::Tensor& obs) = 0;
+  // Sampled actions [n, A] in [-1, 1] of the loaded actor, recording nothing (bidex collect
+  // writes datasets with them); an algorithm without a sampling actor acts deterministically.
+  virtual torch::Tensor sample_actor(const torch::Tensor& obs) { return actor(obs); }
   // The task of each slot of the training pack (taskpack::Pack::slot_tasks), given once before
   // the first act(); meta-RL adapts per task, other algorithms ignore it.
   virtual void set_slot_tasks(const std::vector<int>& /*slot_task*/, int /*ntasks*/) {}

@@ -19,12 +19,14 @@ namespace {
 
 class HostCollector : public Collector {
  public:
-  HostCollector(taskpack::TaskPack& env, const torch::Device& device) : env_(env), device_(device) {
+  HostCollector(taskpack::TaskPack& env, const torch::Device& device, bool record)
+      : env_(env), device_(device), record_(record) {
     const int64_t N = env.nslot(), D = env.obs_dim();
     auto host = torch::TensorOptions().dtype(torch::kFloat32).pinned_memory(device.is_cuda());
     // one transfer per step:
     // [obs N*D | reward N | done N | bootstrap slot ids K | their final obs K*D]
-    staging_ = torch::empty({2 * N * D + 3 * N}, host);
+    // and in record mode after it [truncated N | every final obs N*D]
+    staging_ = torch::empty({(record ? 3 : 2) * N * D + 4 * N}, host);
     const auto on = torch::TensorOptions().device(device);
     no_ids_ = torch::empty({0}, on.dtype(torch::kLong));
     no_final_obs_ = torch::empty({0, D}, on.dtype(torch::kFloat32));
@@ -56,6 +58,11 @@ class HostCollector : public Collector {
       t.final_ids = no_ids_;
       t.final_obs = no_final_obs_;
     }
+    if (record_) {
+      const int64_t at = int64_t(N) * D + 2 * N + k + int64_t(k) * D;
+      t.truncated = dev.narrow(0, at, N);
+      t.end_obs = dev.narrow(0, at + N, int64_t(N) * D).view({N, D});
+    }
     return t;
   }
 
@@ -78,7 +85,13 @@ class HostCollector : public Collector {
     for (int j = 0; j < k; ++j)
       std::memcpy(fin + int64_t(j) * D, env_.final_obs.data() + int64_t(ids[j]) * D,
                   sizeof(float) * D);
-    const int64_t used = int64_t(N) * D + 2 * N + k + int64_t(k) * D;
+    int64_t used = int64_t(N) * D + 2 * N + k + int64_t(k) * D;
+    if (record_ && with_final) {
+      float* trunc = st + used;
+      for (int i = 0; i < N; ++i) trunc[i] = env_.truncated[i] && !env_.fault[i] ? 1.f : 0.f;
+      std::memcpy(trunc + N, env_.final_obs.data(), sizeof(float) * N * D);
+      used += N + int64_t(N) * D;
+    }
     *k_out = k;
     return device_.is_cuda() ? staging_.narrow(0, 0, used).to(device_, /*non_blocking=*/true)
                              : staging_.narrow(0, 0, used).clone();
@@ -86,14 +99,15 @@ class HostCollector : public Collector {
 
   taskpack::TaskPack& env_;
   torch::Device device_;
+  bool record_;
   torch::Tensor staging_;
   torch::Tensor no_ids_, no_final_obs_;  // what a step that cut no episode hands back
 };
 
 class DeviceCollector : public Collector {
  public:
-  DeviceCollector(taskpack::WarpPack& env, const torch::Device& device)
-      : env_(env), device_(device) {
+  DeviceCollector(taskpack::WarpPack& env, const torch::Device& device, bool record)
+      : env_(env), device_(device), record_(record) {
     if (env.on_gpu() != device.is_cuda())
       throw Error(std::string("the pack steps on ") + (env.on_gpu() ? "the GPU" : "the CPU") +
                   " (" + env.device() + ") but the learner is on " + device.str() +
@@ -127,6 +141,10 @@ class DeviceCollector : public Collector {
     t.done = done_.clone();
     t.final_ids = bootstrap_.nonzero().flatten();
     t.final_obs = final_obs_.index_select(0, t.final_ids);
+    if (record_) {
+      t.truncated = bootstrap_.clone();
+      t.end_obs = final_obs_.clone();
+    }
     return t;
   }
 
@@ -137,16 +155,18 @@ class DeviceCollector : public Collector {
 
   taskpack::WarpPack& env_;
   torch::Device device_;
+  bool record_;
   torch::Tensor actions_, obs_, final_obs_, reward_, done_, bootstrap_;
 };
 
 }  // namespace
 
-std::unique_ptr<Collector> make_collector(taskpack::Pack& pack, const torch::Device& device) {
+std::unique_ptr<Collector> make_collector(taskpack::Pack& pack, const torch::Device& device,
+                                          bool record) {
   if (auto* cpu = dynamic_cast<taskpack::TaskPack*>(&pack))
-    return std::make_unique<HostCollector>(*cpu, device);
+    return std::make_unique<HostCollector>(*cpu, device, record);
   if (auto* gpu = dynamic_cast<taskpack::WarpPack*>(&pack))
-    return std::make_unique<DeviceCollector>(*gpu, device);
+    return std::make_unique<DeviceCollector>(*gpu, device, record);
   throw Error("collector: a pack of an unknown kind (" + pack.device() + ")");
 }
 

@@ -36,7 +36,10 @@ class Collector {
 };
 
 // The collector of a CPU or GPU pack for a learner on `device`. A GPU pack needs its learner on
-// the same device (an Error otherwise).
-std::unique_ptr<Collector> make_collector(taskpack::Pack& pack, const torch::Device& device);
+// the same device (an Error otherwise). With `record`, each Transition also has `truncated` and
+// `end_obs` (what a dataset's episodes need; a CPU pack then copies every row of final
+// observations each step).
+std::unique_ptr<Collector> make_collector(taskpack::Pack& pack, const torch::Device& device,
+                                          bool record = false);
 
 }  // namespace bidex::rl

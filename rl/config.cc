@@ -52,14 +52,17 @@ std::string default_train_config(const std::string& algo) {
 }
 
 std::string resolve_train_yaml(const std::string& file, const std::string& algo,
-                               const std::string& target, const std::vector<std::string>& overrides) {
+                               const std::string& target, const std::vector<std::string>& overrides,
+                               const std::string& dataset) {
   const std::string& task = target;
   YamlView v = YamlView::load_file(file);
   v.expect_map();
   YAML::Node root = YAML::Clone(v.node());
-  for (const char* k : {"task", "suite", "algo"})
+  for (const char* k : {"task", "suite", "algo", "dataset"})
     if (root[k])
-      throw ConfigError(file, k, "no task, suite or algo key (they come from --task, --suite and --algo)",
+      throw ConfigError(file, k,
+                        "no task, suite, algo or dataset key (they come from --task, --suite, "
+                        "--algo and --dataset)",
                         "one");
   if (auto per = root["per_task"]) {
     if (!per.IsMap()) YamlView(per, file, "per_task").fail("a map of task id -> overrides", "another value");
@@ -113,6 +116,7 @@ std::string resolve_train_yaml(const std::string& file, const std::string& algo,
   YAML::Node out;
   out[takes_suite(algo) ? "suite" : "task"] = target;
   out["algo"] = algo;
+  if (!dataset.empty()) out["dataset"] = dataset;
   for (auto it = root.begin(); it != root.end(); ++it) out[it->first] = it->second;
   YAML::Emitter em;
   em.SetIndent(2);
@@ -133,7 +137,17 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
   } catch (const ConfigError&) {
     v.child("algo").fail("a known algorithm (" + algorithm_names() + ")", c.algo);
   }
-  v.allow_keys({"task", "suite", "algo", "seed", "env", "train", info.section});
+  v.allow_keys({"task", "suite", "algo", "dataset", "seed", "env", "train", info.section});
+  // an offline algorithm learns from a dataset of its task; no other algorithm takes one
+  if (info.trains_on == TrainsOn::kDataset) {
+    c.dataset = v.req<std::string>("dataset");
+    if (c.dataset.empty())
+      v.child("dataset").fail("a dataset folder (bidex collect; --dataset)", "\"\"");
+  } else if (v.has("dataset")) {
+    v.child("dataset").fail("no 'dataset' key for algorithm " + c.algo +
+                                " (it learns from what it collects)",
+                            v.child("dataset").repr());
+  }
   // a task algorithm (ppo) trains on a task, a suite algorithm (mtppo) on a suite
   const bool suite_algo = takes_suite(c.algo);
   const char* want = suite_algo ? "suite" : "task";

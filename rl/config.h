@@ -124,11 +124,13 @@ std::string default_train_config(const std::string& algo);
 
 // Builds the resolved YAML text for a new run: `file`'s top-level keys (per_task removed, the
 // section of the task or suite merged in), then each "key.path=value" override; adds `algo` and
-// `task: <target>` (a task algorithm) or `suite: <target>` (a suite algorithm).
+// `task: <target>` (a task algorithm) or `suite: <target>` (a suite algorithm), and `dataset` for
+// an offline algorithm (TrainsOn::kDataset), which must have one.
 // A malformed override (no '=', empty key), an unknown key or a value of the wrong type is a
 // ConfigError naming the override.
 std::string resolve_train_yaml(const std::string& file, const std::string& algo,
-                               const std::string& target, const std::vector<std::string>& overrides);
+                               const std::string& target, const std::vector<std::string>& overrides,
+                               const std::string& dataset = "");
 
 // Reads a resolved YAML (as written by resolve_train_yaml) strictly. `name` names it in errors.
 TrainConfig parse_train_config(const std::string& yaml_text, const std::string& name);

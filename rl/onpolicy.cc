@@ -62,4 +62,10 @@ torch::Tensor GaussianOnPolicy::actor(const torch::Tensor& obs) {
   return model_->mean(model_->normalize_obs(obs)).clamp(-1.0, 1.0);
 }
 
+torch::Tensor GaussianOnPolicy::sample_actor(const torch::Tensor& obs) {
+  torch::NoGradGuard ng;
+  auto mu = model_->mean(model_->normalize_obs(obs));
+  return (mu + torch::exp(model_->log_std()) * torch::randn_like(mu)).clamp(-1.0, 1.0);
+}
+
 }  // namespace bidex::rl

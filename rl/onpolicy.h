@@ -23,6 +23,7 @@ class GaussianOnPolicy : public Algorithm {
   void observe(const Transition& t) override;
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override;
   torch::Tensor actor(const torch::Tensor& obs) override;
+  torch::Tensor sample_actor(const torch::Tensor& obs) override;
 
  protected:
   // V(obs after the rollout), and afterwards: the next act() starts a new rollout

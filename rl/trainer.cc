@@ -249,8 +249,11 @@ struct Session {
     return d;
   }
 
-  // slot-steps per update
-  int64_t batch() const { return int64_t(env->nslot()) * algo->steps_per_update(); }
+  // what one update adds to `steps`: slot-steps, or an offline algorithm's gradient steps
+  int64_t batch() const { return algo->steps_counted(env->nslot()); }
+  // A dataset run's pack only evaluates: each update starts every slot afresh and runs one
+  // episode length with the policy as it stands (TrainsOn::kDataset).
+  bool offline() const { return find_algorithm(cfg.algo).trains_on == TrainsOn::kDataset; }
 
   CheckpointMeta meta() const {
     CheckpointMeta m;
@@ -375,10 +378,13 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   SignalScope signals;
   auto& env = *s.env;
   Algorithm& algo = *s.algo;
-  const int T = algo.steps_per_update();
+  const bool offline = s.offline();
+  const int T = offline ? env.task_spec(0).episode_length : algo.steps_per_update();
   const int64_t batch = s.batch();
   const int64_t total_updates = (s.cfg.steps + batch - 1) / batch;
-  std::unique_ptr<Collector> collector_ptr = make_collector(env, s.device);
+  std::unique_ptr<StepRecorder> recorder;
+  if (opt.recorder) recorder = opt.recorder(s.cfg, env);
+  std::unique_ptr<Collector> collector_ptr = make_collector(env, s.device, recorder != nullptr);
   Collector& collector = *collector_ptr;
 
   std::optional<Progress> bar;
@@ -388,22 +394,34 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   }
   TrainResult res;
   res.run_dir = s.dir;
-  RecentScores recent(10);
+  // an offline run's score is its last policy's evaluation; a collecting run's, its recent episodes
+  RecentScores recent(offline ? 1 : 10);
   const std::string title = s.cfg.target() + " (" + find_algorithm(s.cfg.algo).title + ")";
   res.last_return = NAN;
   res.last_success = NAN;
   double shown_return = NAN, shown_success = NAN;
 
   torch::Tensor obs = collector.reset();
-  bool stopped = false;
+  if (recorder) recorder->begin(obs);
+  bool stopped = false, first = true;
   const double session_start = monotonic_seconds();
   StepTimes times;
   if (opt.profile) env.set_profile(true);
   while (s.update < total_updates) {
     const double t_iter = monotonic_seconds();
+    if (offline && !first) {
+      env.take_stats();  // nothing of the last policy's episodes carries over
+      obs = collector.reset();
+    }
+    first = false;
     for (int t = 0; t < T && !g_stop; ++t) {
-      Transition tr = collector.step(algo.act(obs));
+      const torch::Tensor actions = algo.act(obs);
+      Transition tr = collector.step(actions);
       algo.observe(tr);
+      if (recorder && !recorder->step(actions, tr)) {
+        recorder->finish();
+        recorder.reset();
+      }
       obs = tr.obs;
     }
     const double sim_s = collector.take_sim_seconds();
@@ -475,6 +493,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     }
   }
   if (bar) bar->finish();
+  if (recorder) recorder->finish();  // an interrupted run keeps the episodes it recorded
   if (list_checkpoints(s.dir).empty() || s.last_checkpoint != checkpoint_path(s.dir, s.update))
     s.save();
   log.plot(title);
@@ -576,6 +595,7 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
     throw Error("run folder " + run_dir + " exists and is not empty: continue it with --resume " +
                 run_dir + ", or choose another --run");
   s.build(s.cfg.seed, options.device);
+  s.algo->prepare_training();  // an offline algorithm's dataset, checked before anything is written
   write_file_atomic(run_dir + "/config.yaml", resolved_yaml);
   write_run_json(s, options, false);
   if (options.on_start) options.on_start(s.cfg, run_dir);
@@ -596,6 +616,7 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
   const CheckpointMeta m = read_checkpoint_meta(cks.back());
   // the environment restarts its episodes: a new seed per resumed session, so that they differ
   s.build(s.cfg.seed + 1000003ull * static_cast<uint64_t>(m.update), options.device);
+  s.algo->prepare_training();
   load_into(s, cks.back());
   s.last_checkpoint = cks.back();
   write_run_json(s, options, true);
@@ -609,9 +630,11 @@ struct LoadedPolicy::Impl {
   std::string checkpoint;
   CheckpointMeta meta;
   std::unique_ptr<Algorithm> algo;
+  torch::Device device{torch::kCPU};
 };
 
-LoadedPolicy::LoadedPolicy(const std::string& run_dir, const std::string& checkpoint)
+LoadedPolicy::LoadedPolicy(const std::string& run_dir, const std::string& checkpoint,
+                           const std::string& device)
     : impl_(std::make_unique<Impl>()) {
   const std::string name = run_dir + "/config.yaml";
   impl_->cfg = parse_train_config(read_file(name), name);
@@ -632,11 +655,19 @@ LoadedPolicy::LoadedPolicy(const std::string& run_dir, const std::string& checkp
   }
   check_algo(m, path, impl_->cfg.algo, "run " + run_dir);
   impl_->meta = m;
-  const torch::Device cpu(torch::kCPU);
-  impl_->algo = make_algorithm(impl_->cfg.algo, impl_->cfg, m.obs_dim, m.act_dim, 0, cpu);
+  TrainConfig on = impl_->cfg;
+  on.device = device;
+  const torch::Device dev = pick_device(on, "--device");
+  impl_->algo = make_algorithm(impl_->cfg.algo, impl_->cfg, m.obs_dim, m.act_dim, 0, dev);
   torch::serialize::InputArchive root;
-  load_checkpoint(path, root, cpu);
+  load_checkpoint(path, root, dev);
   impl_->algo->load_actor(root, path);
+  impl_->device = dev;
+}
+
+torch::Tensor LoadedPolicy::act(const torch::Tensor& obs, bool sample) {
+  auto o = obs.to(impl_->device);
+  return sample ? impl_->algo->sample_actor(o) : impl_->algo->actor(o);
 }
 
 LoadedPolicy::~LoadedPolicy() = default;
@@ -648,7 +679,7 @@ int64_t LoadedPolicy::update() const { return impl_->meta.update; }
 
 void LoadedPolicy::act(const float* obs, int n, float* actions) {
   auto o = torch::from_blob(const_cast<float*>(obs), {n, impl_->meta.obs_dim}, torch::kFloat32);
-  auto a = impl_->algo->actor(o).contiguous();
+  auto a = act(o, false).to(torch::kCPU).contiguous();
   std::memcpy(actions, a.data_ptr<float>(), sizeof(float) * n * impl_->meta.act_dim);
 }
 

@@ -13,6 +13,10 @@
 
 #include "rl/config.h"
 
+namespace at {
+class Tensor;  // torch::Tensor, without LibTorch's headers here
+}
+
 namespace bidex::taskpack {
 class Pack;
 class TaskPack;
@@ -22,6 +26,7 @@ struct PackSpec;
 namespace bidex::rl {
 
 class Adaptive;
+struct Transition;
 
 // The mean return and success rate of one task of a run (a suite run has one per entry).
 struct EntryScore {
@@ -30,6 +35,21 @@ struct EntryScore {
   double success = 0;       // NaN when no episode ended
   int64_t episodes = 0;
 };
+
+// Sees every step of a training run from its first (bidex train --record-replay writes them as
+// a dataset): the observations after the reset, then each step's actions and what it gave, from
+// a collector in record mode (Transition::truncated and end_obs are set).
+class StepRecorder {
+ public:
+  virtual ~StepRecorder() = default;
+  virtual void begin(const at::Tensor& obs) = 0;
+  // false once it has recorded all it wants: the runner then calls finish() and stops calling
+  virtual bool step(const at::Tensor& actions, const Transition& t) = 0;
+  // Writes what was recorded (also when the run stops early).
+  virtual void finish() = 0;
+};
+using RecorderFactory =
+    std::function<std::unique_ptr<StepRecorder>(const TrainConfig&, const taskpack::Pack&)>;
 
 struct TrainOptions {
   bool progress = true;           // the progress bar on stderr
@@ -47,6 +67,8 @@ struct TrainOptions {
   // Called once the run folder holds config.yaml and run.json, before the first step (bidex
   // train records the run in the registry there).
   std::function<void(const TrainConfig&, const std::string& run_dir)> on_start;
+  // Set: records the run's steps from the first (a new run only).
+  RecorderFactory recorder;
 };
 
 struct TrainResult {
@@ -83,7 +105,9 @@ std::string default_run_dir(const TrainConfig& c);
 // newest), acting deterministically (the Gaussian's mean), on the CPU.
 class LoadedPolicy {
  public:
-  LoadedPolicy(const std::string& run_dir, const std::string& checkpoint = "");
+  // `device`: where it acts (cpu or cuda; act() is on the CPU either way).
+  LoadedPolicy(const std::string& run_dir, const std::string& checkpoint = "",
+               const std::string& device = "cpu");
   ~LoadedPolicy();
   const TrainConfig& config() const;
   const std::string& checkpoint() const;
@@ -92,6 +116,9 @@ class LoadedPolicy {
   int64_t update() const;
   // n rows of obs_dim observations -> n rows of act_dim actions (the mean, clipped to [-1, 1]).
   void act(const float* obs, int n, float* actions);
+  // Actions [n, A] for observations [n, D] on its device: the deterministic ones, or with
+  // `sample` the policy's sampled ones (Algorithm::sample_actor).
+  at::Tensor act(const at::Tensor& obs, bool sample);
   // Meta-RL's adaptation (algorithm.h); null when the run's algorithm does not adapt.
   Adaptive* adaptive();
   // An Error unless `pack` (`what`, e.g. "the test split of ML4") has this checkpoint's

@@ -157,8 +157,8 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   }
   // read back without bidex
   RawDb raw(path);
-  CHECK(registry::schema_version() == 3);
-  CHECK(raw.value("PRAGMA user_version") == "3");
+  CHECK(registry::schema_version() == 4);
+  CHECK(raw.value("PRAGMA user_version") == "4");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
@@ -434,7 +434,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (30.8 - 1.5)));
   }
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "3");
+  CHECK(raw.value("PRAGMA user_version") == "4");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   for (const char* table : {"task_sources", "suites", "suite_members", "run_scores", "evaluations",
                             "evaluation_scores"}) {
@@ -457,8 +457,8 @@ TEST_CASE("the migration steps run in order and every one is needed", "[registry
   RawDb a(dir.file("new.sqlite")), b(dir.file("by_hand.sqlite"));
   const std::string q = "SELECT sql FROM sqlite_master WHERE sql IS NOT NULL ORDER BY name";
   CHECK(a.column(q) == b.column(q));
-  // 9 tables, sqlite_sequence (of AUTOINCREMENT) and 4 indices
-  CHECK(a.column(q).size() == 14);
+  // 10 tables, sqlite_sequence (of AUTOINCREMENT) and 5 indices
+  CHECK(a.column(q).size() == 16);
 }
 
 TEST_CASE("a registry of a newer schema version is refused and left untouched", "[registry]") {
@@ -466,16 +466,16 @@ TEST_CASE("a registry of a newer schema version is refused and left untouched", 
   const std::string path = dir.file("future.sqlite");
   {
     RawDb raw(path);
-    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 4");
+    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 5");
   }
   const std::string before = read_file(path);
   const std::string msg = error_of([&] { Registry reg(path); });
   CHECK_THAT(msg, Catch::Contains(path));
-  CHECK_THAT(msg, Catch::Contains("schema version 4 is newer"));
-  CHECK_THAT(msg, Catch::Contains("(3)"));
+  CHECK_THAT(msg, Catch::Contains("schema version 5 is newer"));
+  CHECK_THAT(msg, Catch::Contains("(4)"));
   CHECK(read_file(path) == before);
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "4");
+  CHECK(raw.value("PRAGMA user_version") == "5");
 }
 
 TEST_CASE("a file that is not an SQLite registry is refused, naming it", "[registry]") {
@@ -849,7 +849,7 @@ TEST_CASE("a version-2 file with runs is migrated to version 3: runs kept, evalu
     CHECK(reg.begin_run(r) == 3);
   }
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "3");
+  CHECK(raw.value("PRAGMA user_version") == "4");
   for (const char* table : {"evaluations", "evaluation_scores"}) {
     INFO(table);
     CHECK(raw.value(std::string("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
@@ -927,4 +927,69 @@ TEST_CASE("the age report of an evaluation: the scores after adaptation, normali
   const int64_t none = reg.add_evaluation(empty);
   CHECK_THAT(error_of([&] { registry::age_report_evaluation(reg, none); }),
              Catch::Contains("evaluation 3 recorded no scores"));
+}
+
+TEST_CASE("datasets and the offline normalised score: the dataset's references, a replay "
+          "dataset's from its task's newest with both", "[registry][offline]") {
+  RegTempDir dir;
+  const std::string path = dir.file("reg.sqlite");
+  {
+    RawDb raw(path);  // a version-3 file with a run: migrated, the run has no dataset
+    for (int v = 1; v <= 3; ++v) raw.exec(registry::migration_sql(v));
+    raw.exec("PRAGMA user_version = 3;"
+             "INSERT INTO runs (algo, task, seed, started, status) VALUES ('ppo', 'hand_over', 1, "
+             "'2026-02-02T00:00:00Z', 'finished');");
+  }
+  Registry reg(path);
+  CHECK(reg.run(1)->dataset.empty());
+  registry::DatasetRecord expert;
+  expert.checksum = "sha256:" + std::string(64, 'a');
+  expert.dataset_id = "hand_over/expert-v0";
+  expert.task = "hand_over";
+  expert.quality = "expert";
+  expert.path = "/data/hand_over/expert-v0";
+  expert.total_steps = 1000;
+  expert.total_episodes = 10;
+  expert.ref_min = 2.0;
+  expert.ref_max = 32.0;
+  expert.added = "2026-03-01T00:00:00Z";
+  reg.put_dataset(expert);
+  registry::DatasetRecord replay = expert;
+  replay.checksum = "sha256:" + std::string(64, 'b');
+  replay.quality = "replay";
+  replay.ref_min.reset();
+  replay.ref_max.reset();
+  reg.put_dataset(replay);
+  // (17 - 2) / (32 - 2) = 0.5 on the paper's scale
+  CHECK(*reg.offline_normalised(expert.checksum, 17.0) == Approx(50.0));
+  CHECK(*reg.offline_normalised(replay.checksum, 2.0) == Approx(0.0));
+  CHECK_FALSE(reg.offline_normalised("sha256:" + std::string(64, 'c'), 17.0));
+  // a newer expert of the task with other references is the replay dataset's
+  registry::DatasetRecord newer = expert;
+  newer.checksum = "sha256:" + std::string(64, 'd');
+  newer.ref_max = 12.0;
+  newer.added = "2026-04-01T00:00:00Z";
+  reg.put_dataset(newer);
+  CHECK(*reg.offline_normalised(replay.checksum, 7.0) == Approx(50.0));
+  CHECK(*reg.offline_normalised(expert.checksum, 17.0) == Approx(50.0));  // its own kept
+  // the same checksum again replaces the row (a moved folder)
+  expert.path = "/elsewhere";
+  reg.put_dataset(expert);
+  CHECK(reg.datasets().size() == 3);
+  CHECK(reg.dataset(expert.checksum)->path == "/elsewhere");
+  CHECK(reg.dataset(expert.checksum)->total_episodes == 10);
+  // a run of a dataset keeps its checksum
+  registry::RunRecord r;
+  r.algo = "td3bc";
+  r.task = "hand_over";
+  r.dataset = expert.checksum;
+  const int64_t id = reg.begin_run(r);
+  CHECK(reg.run(id)->dataset == expert.checksum);
+  // no checksum, or no task: refused
+  registry::DatasetRecord bad = expert;
+  bad.checksum = "md5:00";
+  CHECK_THROWS_AS(reg.put_dataset(bad), Error);
+  bad = expert;
+  bad.task.clear();
+  CHECK_THROWS_AS(reg.put_dataset(bad), Error);
 }

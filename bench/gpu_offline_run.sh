@@ -1,0 +1,124 @@
+#!/usr/bin/env bash
+# The offline table on a GPU machine (issue: hand_over and door_open_outward, four datasets, four
+# algorithms), one stage per call so that a device session can be spent in slices. Build first
+# with bench/gpu_learn_run.sh build PARTS.
+#   bench/gpu_offline_run.sh experts OUTDIR TASKS SLOTS SECONDS STEPS REPLAY_STEPS
+#       online PPO on each task at once on the GPU (the experts, and the 100 of the normalised
+#       score), checkpoints every 10 updates; the first call records the replay dataset
+#       (--record-replay); a later call resumes the runs for SECONDS more
+#   bench/gpu_offline_run.sh datasets OUTDIR TASKS STEPS SLOTS
+#       per task, at once: random, medium and expert (bidex collect on the GPU), then
+#       medium-expert (--merge); their metadata and checksums go to OUTDIR/datasets.json
+#   bench/gpu_offline_run.sh offline OUTDIR TASKS ALGOS QUALITIES GRADIENT_STEPS PARALLEL
+#       every algorithm on every dataset, PARALLEL runs at once (learners on the GPU, their
+#       evaluation packs on the CPU); then the table (bench/offline_table.py)
+# Everything lives under /tmp/bidex-offline (runs, datasets, the registry); results go to OUTDIR
+# with the machine, date, commit ($BIDEX_COMMIT) and commands.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+build=${BIDEX_GPU_BUILD:-build-gpu}
+bidex=$(realpath "$build/apps/bidex")
+root=/tmp/bidex-offline
+reg="$root/registry.sqlite"
+stage=${1:?stage: experts, datasets or offline}
+shift
+SECONDS=0
+mkdir -p "$root/runs" "$root/datasets"
+
+case "$stage" in
+experts)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; slots=${3:?SLOTS}; budget=${4:?SECONDS}
+  steps=${5:?STEPS}; replay=${6:?REPLAY_STEPS}
+  mkdir -p "$out"
+  for task in ${tasks//,/ }; do
+    run="$root/runs/$task-ppo"
+    if [[ -f "$run/config.yaml" ]]; then
+      args=(train --resume "$run" --device cuda --registry "$reg" --time-limit "$budget")
+    else
+      args=(train --task "$task" --device cuda -o env.slots="$slots" -o train.steps="$steps"
+            -o train.save_interval=10 -o train.keep_checkpoints=1000 --run "$run"
+            --registry "$reg" --time-limit "$budget"
+            --record-replay "$root/datasets/$task/replay-v0" --replay-steps "$replay")
+    fi
+    echo "bidex ${args[*]}" >>"$out/commands.txt"
+    "$bidex" "${args[@]}" >"$out/ppo-$task.txt" 2>"$out/ppo-$task.progress" &
+  done
+  wait
+  for task in ${tasks//,/ }; do
+    tail -4 "$out/ppo-$task.txt"
+    cp "$root/runs/$task-ppo/metrics.csv" "$out/ppo-$task-metrics.csv"
+    cp "$root/runs/$task-ppo/learning_curve.svg" "$out/ppo-$task-curve.svg"
+  done
+  echo "experts: ${SECONDS}s"
+  ;;
+datasets)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; steps=${3:?STEPS}; slots=${4:?SLOTS}
+  mkdir -p "$out"
+  for task in ${tasks//,/ }; do
+    (
+      run="$root/runs/$task-ppo"
+      d="$root/datasets/$task"
+      for q in random medium expert; do
+        if [[ $q == random ]]; then src=(--task "$task" --expert "$run"); else src=(--run "$run"); fi
+        args=(collect --quality "$q" "${src[@]}" --out "$d/$q-v0" --steps "$steps"
+              --slots "$slots" --device cuda --registry "$reg")
+        echo "bidex ${args[*]}" >>"$out/commands-$task.txt"
+        "$bidex" "${args[@]}" >>"$out/collect-$task.txt" 2>/dev/null || echo "FAILED $task $q"
+      done
+      args=(collect --quality medium-expert --merge "$d/medium-v0" "$d/expert-v0"
+            --out "$d/medium-expert-v0" --registry "$reg")
+      echo "bidex ${args[*]}" >>"$out/commands-$task.txt"
+      "$bidex" "${args[@]}" >>"$out/collect-$task.txt" 2>&1 || echo "FAILED $task medium-expert"
+      "$bidex" dataset info "$d/replay-v0" >>"$out/collect-$task.txt" 2>&1
+    ) &
+  done
+  wait
+  cat "$out"/collect-*.txt
+  python3 - "$root/datasets" "$out/datasets.json" "${BIDEX_COMMIT:-unknown}" <<'PY'
+import json, sys, glob, os, datetime, subprocess
+root, path, commit = sys.argv[1:4]
+machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
+                         capture_output=True, text=True).stdout.strip()
+out = {"what": "the offline datasets: metadata.json of each (checksum, sizes, references)",
+       "machine": machine, "commit": commit,
+       "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+       "datasets": []}
+for m in sorted(glob.glob(f"{root}/*/*/data/metadata.json")):
+    d = json.load(open(m))
+    d["folder"] = os.path.relpath(os.path.dirname(os.path.dirname(m)), root)
+    out["datasets"].append(d)
+json.dump(out, open(path, "w"), indent=2)
+PY
+  echo "datasets: ${SECONDS}s"
+  ;;
+offline)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; algos=${3:?ALGOS}
+  qualities=${4:?QUALITIES}; gsteps=${5:?GRADIENT_STEPS}; parallel=${6:?PARALLEL}
+  mkdir -p "$out/runs"
+  jobs="$out/jobs.txt"
+  : >"$jobs"
+  for task in ${tasks//,/ }; do
+    for q in ${qualities//,/ }; do
+      for algo in ${algos//,/ }; do
+        echo "$task $q $algo" >>"$jobs"
+      done
+    done
+  done
+  export bidex root reg out gsteps
+  xargs -P "$parallel" -L 1 bash -c '
+    task=$0; q=$1; algo=$2; name=$task-$q-$algo
+    args=(train --algo "$algo" --dataset "$root/datasets/$task/$q-v0" --device cpu
+          -o train.device=cuda -o train.steps="$gsteps" -o env.threads=2 --run "$root/runs/$name"
+          --registry "$reg")
+    echo "bidex ${args[*]}" >>"$out/commands.txt"
+    "$bidex" "${args[@]}" >"$out/runs/$name.txt" 2>/dev/null
+    cp "$root/runs/$name/metrics.csv" "$out/runs/$name-metrics.csv" 2>/dev/null
+    tail -3 "$out/runs/$name.txt"' <"$jobs"
+  python3 bench/offline_table.py "$reg" "$out" "${BIDEX_COMMIT:-unknown}"
+  echo "offline: ${SECONDS}s"
+  ;;
+*)
+  echo "unknown stage $stage (experts, datasets, offline)" >&2
+  exit 2
+  ;;
+esac
