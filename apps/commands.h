@@ -22,5 +22,6 @@ void add_render_command(CLI::App& app); // bidex render: a task's scene, or a po
 void add_train_command(CLI::App& app);  // bidex train: PPO with a run folder, --resume
 void add_eval_command(CLI::App& app);   // bidex eval: a trained policy's return and success
 void add_registry_command(CLI::App& app);  // bidex registry list|add-task|scores|reference|report
+void add_dataset_command(CLI::App& app);   // bidex dataset info|verify|export-d4rl
 
 }  // namespace bidex::apps

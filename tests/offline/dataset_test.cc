@@ -1,5 +1,6 @@
 // offline/dataset: real HDF5 datasets in temp folders: round trip, reproducible bytes, corruption
-// and its messages, dropped episodes, merge, D4RL export, and h5py reading them.
+// and its messages, dropped episodes, merge, D4RL export, h5py reading them, and
+// `bidex dataset` as the real binary.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -610,4 +611,57 @@ print("space", s["type"], s["shape"], s["low"][0], s["high"][-1])
   CHECK(has(r.out, "flags [False, False, False, False, True] "
                    "[False, False, False, False, False, False, True]\n"));
   CHECK(has(r.out, "space Box [4] -inf inf\n"));
+}
+
+TEST_CASE("bidex dataset info | verify | export-d4rl", "[dataset][offline][apps]") {
+  TempDir tmp;
+  const std::string dir = tmp.file("ds");
+  const auto eps = three(4, 2, 81);
+  const DatasetInfo info = write(dir, info_for(4, 2), eps);
+
+  CommandResult r = bidex_run("dataset info " + q(dir));
+  INFO(r.out);
+  CHECK(r.rc == 0);
+  CHECK(has(r.out, "hand_over/expert-v0"));
+  CHECK(has(r.out, "hand_over (hand_over-v0)"));
+  CHECK(has(r.out, "15 steps in 3 episodes"));
+  CHECK(has(r.out, "obs 4, act 2"));
+  CHECK(has(r.out, "ref_min -5.5"));
+  CHECK(has(r.out, info.checksum));
+  CHECK(has(r.out, "runs/x/checkpoints/update_000010.ckpt"));
+
+  r = bidex_run("dataset info --json " + q(dir + "/data/main_data.hdf5"));
+  CHECK(r.rc == 0);
+  CHECK(nlohmann::json::parse(r.out)["checksum"] == info.checksum);
+
+  r = bidex_run("dataset verify " + q(dir));
+  CHECK(r.rc == 0);
+  CHECK(has(r.out, "OK " + dir));
+  CHECK(has(r.out, info.checksum));
+
+  r = bidex_run("dataset export-d4rl " + q(dir) + " " + q(tmp.file("flat.hdf5")));
+  CHECK(r.rc == 0);
+  CHECK(has(r.out, "15 transitions"));
+  CHECK(fs::is_regular_file(tmp.file("flat.hdf5")));
+
+  for (const char* help : {"dataset --help", "dataset info --help", "dataset verify --help",
+                           "dataset export-d4rl --help"}) {
+    r = bidex_run(help);
+    INFO(help << ": " << r.out);
+    CHECK(r.rc == 0);
+    CHECK(has(r.out, "Usage"));
+  }
+
+  // corrupted: status 2 and the message
+  flip_data_byte(dir + "/data/main_data.hdf5", eps[2].obs.data() + 4);
+  r = bidex_run("dataset verify " + q(dir));
+  CHECK(r.rc == 2);
+  CHECK(has(r.out, "bidex: error: " + dir + "/data/main_data.hdf5: checksum mismatch"));
+  fs::resize_file(dir + "/data/main_data.hdf5", 100);
+  r = bidex_run("dataset info " + q(dir));
+  CHECK(r.rc == 2);
+  CHECK(has(r.out, "not a readable HDF5 file"));
+  r = bidex_run("dataset verify " + q(tmp.file("nothing")));
+  CHECK(r.rc == 2);
+  CHECK(has(r.out, "metadata.json: missing"));
 }
