@@ -26,5 +26,6 @@ void add_train_command(CLI::App& app);  // bidex train: PPO with a run folder, -
 void add_eval_command(CLI::App& app);   // bidex eval: a trained policy's return and success
 void add_collect_command(CLI::App& app);  // bidex collect: offline datasets
 void add_registry_command(CLI::App& app);  // bidex registry list|add-task|scores|reference|report
+void add_dataset_command(CLI::App& app);   // bidex dataset info|verify|export-d4rl
 
 }  // namespace bidex::apps

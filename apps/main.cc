@@ -40,6 +40,7 @@ int main(int argc, char** argv) {
   bidex::apps::add_eval_command(app);
   bidex::apps::add_collect_command(app);
   bidex::apps::add_registry_command(app);
+  bidex::apps::add_dataset_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -13,6 +13,7 @@ packages=(build-essential cmake ninja-build ccache git pkg-config
           libeigen3-dev libcli11-dev nlohmann-json3-dev librandom123-dev
           libosmesa6-dev libpng-dev   # headless rendering (sim/render): OSMesa and libpng
           python3-dev pybind11-dev    # the GPU backend embeds Python (sim/warp_backend)
+          libhdf5-dev libssl-dev      # offline datasets: HDF5 files, SHA-256 checksums
           libopenblas0-pthread)       # LibTorch's CPU matrix products: 2-4.5x faster updates than
                                       # the reference BLAS (bench/results/blas-2core.txt)
 build_dir=${BIDEX_BUILD_DIR:-build}
@@ -34,9 +35,10 @@ if [[ "${1:-}" != "--no-apt" ]]; then
   fi
 fi
 
-# MuJoCo from its official wheel, pinned (cmake/BidexMuJoCo.cmake finds it there), and the GPU
-# backend's MuJoCo Warp, pinned (its tests run it on Warp's CPU device where there is no GPU)
-wheels=(mujoco==3.17.0 warp-lang==1.19.0 mujoco-warp==4.0.0)
+# MuJoCo from its official wheel, pinned (cmake/BidexMuJoCo.cmake finds it there), the GPU
+# backend's MuJoCo Warp, pinned (its tests run it on Warp's CPU device where there is no GPU), and
+# h5py, with which the dataset tests read the HDF5 files as Minari's users do
+wheels=(mujoco==3.17.0 warp-lang==1.19.0 mujoco-warp==4.0.0 h5py==3.12.1)
 venv=.venv
 if ! "$venv/bin/python" - "${wheels[@]}" 2>/dev/null <<'PY'
 import importlib.metadata as m, sys
