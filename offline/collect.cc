@@ -60,7 +60,7 @@ std::string medium_checkpoint(const std::string& run_dir) {
     const int64_t u = rl::read_checkpoint_meta(ck).update;
     for (size_t i = 0; i < upd.size(); ++i)
       if (upd[i] == u) return trailing_mean(ret, i, 10);
-    return NAN;
+    return std::nan("");
   };
   const double target = 0.5 * score(cks.back());
   if (!std::isfinite(target))

@@ -27,7 +27,10 @@ debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen
       # with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
       libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0
       libosmesa6 libosmesa6-dev libglapi-mesa libllvm15 libz3-4 libedit2 libbsd0 libmd0
-      libxml2 libicu72 libpng16-16 libpng-dev)
+      libxml2 libicu72 libpng16-16 libpng-dev
+      # offline datasets (offline/): HDF5 (serial) with its compression libraries, and OpenSSL's
+      # libcrypto (SHA-256 checksums; libhdf5 links it too)
+      libhdf5-dev libhdf5-103-1 libsz2 libaec0 libssl-dev libssl3)
 
 gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
 part_size=${BIDEX_PART_SIZE:-55M}  # MiB: 57.7 MB, under 60 MB with room for a transfer's other files
