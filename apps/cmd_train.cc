@@ -362,9 +362,13 @@ void add_train_command(CLI::App& app) {
       throw;
     }
     rec->finish(&r, r.interrupted ? "stopped" : "finished");
-    std::printf("run %s: %lld updates, %lld slot-steps; last mean return %s, success rate %s\n",
+    const std::string cfg_file = r.run_dir + "/config.yaml";
+    const bool offline_run =
+        !rl::parse_train_config(read_file(cfg_file), cfg_file).dataset.empty();
+    std::printf("run %s: %lld updates, %lld %s; last mean return %s, success rate %s\n",
                 r.run_dir.c_str(), static_cast<long long>(r.updates),
-                static_cast<long long>(r.steps), num(r.last_return).c_str(),
+                static_cast<long long>(r.steps),
+                offline_run ? "gradient steps" : "slot-steps", num(r.last_return).c_str(),
                 num(r.last_success, "%.3f").c_str());
     print_scores(r, *rec);
     std::printf("simulation on %s\n", r.sim_device.c_str());

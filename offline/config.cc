@@ -8,12 +8,11 @@ namespace {
 
 // allow_keys over the section's own keys and the shared ones, then the shared ones
 void read_common(const YamlView& p, std::vector<std::string> keys, OfflineConfig& c) {
-  keys.insert(keys.end(), {"obs_norm", "batch_size", "gradient_steps", "eval_steps"});
+  keys.insert(keys.end(), {"obs_norm", "batch_size", "gradient_steps"});
   p.allow_keys(keys);
   c.obs_norm = p.req<bool>("obs_norm");
   c.batch_size = rl::read_int(p, "batch_size", 1);
   c.gradient_steps = rl::read_int(p, "gradient_steps", 1);
-  c.eval_steps = rl::read_int(p, "eval_steps", 1);
 }
 
 double lr(const YamlView& p, const char* key) { return rl::read_real(p, key, 0, 1, true); }

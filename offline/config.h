@@ -17,7 +17,6 @@ struct OfflineConfig {
   bool obs_norm = true;       // observations normalised by the dataset's mean and std
   int batch_size = 256;       // transitions per gradient step
   int gradient_steps = 10000; // per update (the original trains 10000 between evaluations)
-  int eval_steps = 150;       // control steps of every evaluation slot per update
 };
 
 struct BcConfig : OfflineConfig {

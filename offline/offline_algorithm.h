@@ -1,9 +1,9 @@
 // What BC, BCQ, TD3+BC and IQL share on the learning core: the dataset on the training device,
 // uniform minibatches from it, the observation normaliser, the update loop and the common parts
-// of checkpoints. An offline run's pack only evaluates: each update the runner steps it
-// eval_steps steps with act() (the deterministic evaluation action, no exploration), observe()
-// ignores the steps, and update() takes gradient_steps gradient steps on the dataset; the run's
-// `steps` counts gradient steps (steps_counted).
+// of checkpoints. An offline run's pack only evaluates: each update the runner restarts it and
+// steps it one episode length with act() (the deterministic evaluation action, no exploration),
+// observe() ignores the steps, and update() takes gradient_steps gradient steps on the dataset;
+// the run's `steps` counts gradient steps (steps_counted).
 //
 // Observation normalisation (option obs_norm, on by default; our addition: TD3+BC's paper
 // normalises states, the original Bi-DexHands runners feed them raw): observations are
@@ -30,7 +30,8 @@ class OfflineAlgorithm : public rl::Algorithm {
   OfflineAlgorithm(const rl::TrainConfig& config, const OfflineConfig& common, int64_t obs_dim,
                    int64_t act_dim, const torch::Device& device);
 
-  int steps_per_update() const final { return common_.eval_steps; }
+  // unused: the runner evaluates one episode length per update (TrainsOn::kDataset)
+  int steps_per_update() const final { return 1; }
   torch::Tensor act(const torch::Tensor& obs) final { return actor(obs); }
   void observe(const rl::Transition&) final {}
   std::vector<double> update(const torch::Tensor& obs) final;
