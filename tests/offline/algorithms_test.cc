@@ -25,10 +25,9 @@ rl::TrainConfig config(const std::string& algo, std::vector<std::string> extra =
   offline::register_algorithms();
   std::vector<std::string> o = {"train.device=cpu", "train.torch_threads=1"};
   for (auto& e : extra) o.push_back(e);
-  auto c = rl::parse_train_config(
-      rl::resolve_train_yaml(rl::default_train_config(algo), algo, "hand_over", o), algo);
-  c.dataset = kDataset;
-  return c;
+  return rl::parse_train_config(
+      rl::resolve_train_yaml(rl::default_train_config(algo), algo, "hand_over", o, kDataset),
+      algo);
 }
 
 std::unique_ptr<offline::OfflineAlgorithm> make(const rl::TrainConfig& c, int64_t D, int64_t A) {
@@ -230,14 +229,14 @@ TEST_CASE("bc, bcq, td3bc and iql are dataset algorithms with strict sections", 
     CHECK_THROWS_AS(a->update(torch::zeros({1, 2})), std::logic_error);
     try {
       rl::resolve_train_yaml(rl::default_train_config(name), name, "hand_over",
-                             {name + ".gradient_steps=0"});
+                             {name + ".gradient_steps=0"}, kDataset);
       FAIL("gradient_steps 0 accepted");
     } catch (const ConfigError& e) {
       CHECK_THAT(e.what(), Catch::Contains("gradient_steps"));
     }
     // a key the section does not have
     std::string text = rl::resolve_train_yaml(rl::default_train_config(name), name, "hand_over",
-                                              {});
+                                              {}, kDataset);
     const std::string key = "  obs_norm: true";
     const auto at = text.find(key);
     REQUIRE(at != std::string::npos);
