@@ -9,9 +9,12 @@
 #   bench/gpu_offline_run.sh datasets OUTDIR TASKS STEPS SLOTS
 #       per task, at once: random, medium and expert (bidex collect on the GPU), then
 #       medium-expert (--merge); their metadata and checksums go to OUTDIR/datasets.json
-#   bench/gpu_offline_run.sh offline OUTDIR TASKS ALGOS QUALITIES GRADIENT_STEPS PARALLEL
+#   bench/gpu_offline_run.sh offline OUTDIR TASKS ALGOS QUALITIES GRADIENT_STEPS PER_UPDATE SLOTS
+#                                    PARALLEL SECONDS
 #       every algorithm on every dataset, PARALLEL runs at once (learners on the GPU, their
-#       evaluation packs on the CPU); then the table (bench/offline_table.py)
+#       evaluation packs of SLOTS slots on the CPU, one thread each), GRADIENT_STEPS in all with
+#       an evaluation every PER_UPDATE, each stopped after SECONDS of training if not done; then
+#       the table (bench/offline_table.py)
 # Everything lives under /tmp/bidex-offline (runs, datasets, the registry); results go to OUTDIR
 # with the machine, date, commit ($BIDEX_COMMIT) and commands.
 set -uo pipefail
@@ -93,7 +96,8 @@ PY
   ;;
 offline)
   out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; algos=${3:?ALGOS}
-  qualities=${4:?QUALITIES}; gsteps=${5:?GRADIENT_STEPS}; parallel=${6:?PARALLEL}
+  qualities=${4:?QUALITIES}; gsteps=${5:?GRADIENT_STEPS}; per=${6:?PER_UPDATE}
+  eslots=${7:?SLOTS}; parallel=${8:?PARALLEL}; limit=${9:?SECONDS}
   mkdir -p "$out/runs"
   jobs="$out/jobs.txt"
   : >"$jobs"
@@ -104,11 +108,12 @@ offline)
       done
     done
   done
-  export bidex root reg out gsteps
+  export bidex root reg out gsteps per eslots limit
   xargs -P "$parallel" -L 1 bash -c '
     task=$0; q=$1; algo=$2; name=$task-$q-$algo
     args=(train --algo "$algo" --dataset "$root/datasets/$task/$q-v0" --device cpu
-          -o train.device=cuda -o train.steps="$gsteps" -o env.threads=2 --run "$root/runs/$name"
+          -o train.device=cuda -o train.steps="$gsteps" -o "$algo.gradient_steps=$per"
+          -o env.slots="$eslots" -o env.threads=1 --time-limit "$limit" --run "$root/runs/$name"
           --registry "$reg")
     echo "bidex ${args[*]}" >>"$out/commands.txt"
     "$bidex" "${args[@]}" >"$out/runs/$name.txt" 2>/dev/null
