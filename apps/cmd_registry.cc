@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -224,6 +225,51 @@ void add_registry_command(CLI::App& app) {
         ++shown;
       }
       std::printf("%d run%s in %s\n", shown, shown == 1 ? "" : "s", r.path().c_str());
+    });
+  }
+
+  // offline
+  {
+    struct Opts {
+      std::string registry, task;
+    };
+    auto o = std::make_shared<Opts>();
+    auto* cmd = reg->add_subcommand(
+        "offline", "Offline RL: the recorded datasets (checksum, quality, size, reference "
+                   "scores) and every offline run on them with its final return and normalised "
+                   "score (random 0, online PPO 100, as the paper's table)");
+    add_registry_option(cmd, o->registry);
+    cmd->add_option("--task", o->task, "Only datasets and runs of this task");
+    cmd->footer("Example:\n  bidex registry offline --task hand_over");
+    cmd->callback([o] {
+      Registry r(registry_path(o->registry));
+      auto num = [](const std::optional<double>& v, const char* f) {
+        if (!v) return std::string("-");
+        char b[32];
+        std::snprintf(b, sizeof b, f, *v);
+        return std::string(b);
+      };
+      int shown = 0;
+      for (auto& d : r.datasets()) {
+        if (!o->task.empty() && d.task != o->task) continue;
+        std::printf("%-20s %-14s %9lld steps %7lld episodes  random %s expert %s  %s\n",
+                    d.task.c_str(), d.quality.c_str(), static_cast<long long>(d.total_steps),
+                    static_cast<long long>(d.total_episodes), num(d.ref_min, "%.4g").c_str(),
+                    num(d.ref_max, "%.4g").c_str(), d.checksum.substr(0, 19).c_str());
+        for (auto& run : r.runs()) {
+          if (run.dataset != d.checksum) continue;
+          std::optional<double> norm;
+          if (run.final_return) norm = r.offline_normalised(d.checksum, *run.final_return);
+          std::printf("    run %-5lld %-6s seed %-4llu %9lld gradient steps  %-8s return %s  "
+                      "normalised %s\n",
+                      static_cast<long long>(run.id), run.algo.c_str(),
+                      static_cast<unsigned long long>(run.seed),
+                      static_cast<long long>(run.steps), run.status.c_str(),
+                      num(run.final_return, "%.4g").c_str(), num(norm, "%.1f").c_str());
+        }
+        ++shown;
+      }
+      std::printf("%d dataset%s in %s\n", shown, shown == 1 ? "" : "s", r.path().c_str());
     });
   }
 

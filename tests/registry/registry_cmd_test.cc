@@ -430,7 +430,8 @@ TEST_CASE("bidex registry evals and report age --eval: scores before and after a
 }
 
 TEST_CASE("every bidex registry command has --help naming --registry", "[registry][apps]") {
-  for (const char* c : {"list", "add-task", "scores", "evals", "reference", "report age"}) {
+  for (const char* c :
+       {"list", "add-task", "scores", "evals", "offline", "reference", "report age"}) {
     INFO(c);
     CommandResult r = bidex_run(std::string("registry ").append(c).append(" --help"));
     CHECK(r.rc == 0);
@@ -438,8 +439,46 @@ TEST_CASE("every bidex registry command has --help naming --registry", "[registr
   }
   CommandResult r = bidex_run("registry --help");
   CHECK(r.rc == 0);
-  for (const char* c : {"list", "add-task", "scores", "evals", "reference", "report"})
+  for (const char* c : {"list", "add-task", "scores", "evals", "offline", "reference", "report"})
     CHECK(has_text(r.out, c));
+}
+
+TEST_CASE("bidex registry offline: datasets with their references, their runs normalised",
+          "[registry][apps][offline]") {
+  RegTempDir dir;
+  const std::string path = dir.file("reg.sqlite");
+  {
+    Registry reg(path);
+    registry::DatasetRecord d;
+    d.checksum = "sha256:" + std::string(64, 'e');
+    d.dataset_id = "hand_over/medium-v0";
+    d.task = "hand_over";
+    d.quality = "medium";
+    d.path = "/data/m";
+    d.total_steps = 5000;
+    d.total_episodes = 70;
+    d.ref_min = 10.0;
+    d.ref_max = 210.0;
+    reg.put_dataset(d);
+    registry::RunRecord run;
+    run.algo = "td3bc";
+    run.task = "hand_over";
+    run.dataset = d.checksum;
+    run.steps = 20000;
+    const int64_t id = reg.begin_run(run);
+    run.final_return = 60.0;  // (60 - 10) / (210 - 10) = 25
+    run.status = "finished";
+    reg.finish_run(id, run, {});
+  }
+  CommandResult r = reg_run("offline", path);
+  CHECK(r.rc == 0);
+  CHECK(has_text(r.out, "hand_over"));
+  CHECK(has_text(r.out, "medium"));
+  CHECK(has_text(r.out, "td3bc"));
+  CHECK(has_text(r.out, "normalised 25.0"));
+  CHECK(has_text(r.out, "1 dataset in"));
+  r = reg_run("offline --task door_open_outward", path);
+  CHECK(has_text(r.out, "0 datasets in"));
 }
 
 TEST_CASE("a registry file that is not SQLite: exit 2 naming it", "[registry][apps]") {
