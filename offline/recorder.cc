@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+
+#include <dirent.h>
+#include <unistd.h>
 
 #include "core/version.h"
 #include "taskpack/pack.h"
@@ -130,6 +134,20 @@ class ReplayRecorder : public rl::StepRecorder {
 
 rl::RecorderFactory replay_recorder(const std::string& dir, int64_t steps,
                                     const std::string& command) {
+  // checked now, not when the run's loop makes the writer: by then the run folder and its
+  // registry row exist, and a taken destination would leave them half-made
+  if (DIR* d = ::opendir(dir.c_str())) {
+    bool empty = true;
+    while (const dirent* e = ::readdir(d))
+      if (std::strcmp(e->d_name, ".") != 0 && std::strcmp(e->d_name, "..") != 0) empty = false;
+    ::closedir(d);
+    if (!empty)
+      throw DatasetError(dir + ": already exists and is not an empty folder (nothing there was "
+                         "touched)");
+  } else if (::access(dir.c_str(), F_OK) == 0) {
+    throw DatasetError(dir + ": already exists and is not an empty folder (nothing there was "
+                       "touched)");
+  }
   return [=](const rl::TrainConfig& c, const taskpack::Pack& pack) {
     if (pack.ngroups() != 1 || !c.suite.empty())
       throw Error("--record-replay records a task run's stream; " + c.target() +
