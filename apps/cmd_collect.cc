@@ -16,8 +16,6 @@
 
 namespace bidex::apps {
 
-std::string record_dataset(registry::Registry& reg, const std::string& path);  // cmd_train.cc
-
 void add_collect_command(CLI::App& app) {
   struct Opts {
     offline::CollectOptions c;

@@ -79,7 +79,6 @@ std::string absolute(const std::string& path) {
   return out;
 }
 
-// Records the dataset at `path` in the registry (offline runs, bidex collect); its checksum.
 std::string record_dataset(registry::Registry& reg, const std::string& path) {
   const offline::DatasetInfo d = offline::read_info(path);
   registry::DatasetRecord r;

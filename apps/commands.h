@@ -5,12 +5,20 @@ namespace CLI {
 class App;
 }
 
+namespace bidex::registry {
+class Registry;
+}
+
 #include <string>
 
 namespace bidex::apps {
 
 // `path` made absolute (realpath), or as given where it does not exist.
 std::string absolute(const std::string& path);
+
+// Records the dataset at `path` (offline/dataset.h) in `reg` and returns its checksum (offline
+// runs, bidex collect; apps/cmd_train.cc).
+std::string record_dataset(registry::Registry& reg, const std::string& path);
 
 // The command line this process was started with, for results files.
 const std::string& command_line();

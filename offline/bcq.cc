@@ -63,14 +63,14 @@ class Bcq final : public OfflineAlgorithm {
         c_(c),
         actor_(D, A, c.actor_hidden, c.phi),
         actor_target_(D, A, c.actor_hidden, c.phi),
-        critic_(D, A, c.critic_hidden),
-        critic_target_(D, A, c.critic_hidden),
+        critic_(twin_q(D, A, c.critic_hidden)),
+        critic_target_(twin_q(D, A, c.critic_hidden)),
         vae_(D, A, c.vae_hidden) {
     for (torch::nn::Module* m : std::initializer_list<torch::nn::Module*>{
              actor_.get(), actor_target_.get(), critic_.get(), critic_target_.get(), vae_.get()})
       m->to(device);
-    make_target(*actor_, *actor_target_);
-    make_target(*critic_, *critic_target_);
+    rl::make_target(*actor_, *actor_target_);
+    rl::make_target(*critic_, *critic_target_);
     actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
                                                       torch::optim::AdamOptions(c.actor_lr));
     critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),
@@ -155,7 +155,7 @@ class Bcq final : public OfflineAlgorithm {
  private:
   BcqConfig c_;
   Perturb actor_, actor_target_;
-  TwinQ critic_, critic_target_;
+  rl::QCritic critic_, critic_target_;
   Vae vae_;
   std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_, vae_opt_;
 };

@@ -56,14 +56,14 @@ class Iql final : public OfflineAlgorithm {
       const torch::Device& device)
       : OfflineAlgorithm(config, c, D, A, device),
         c_(c),
-        q_(D, A, c.hidden, std::sqrt(2.0)),
-        q_target_(D, A, c.hidden, std::sqrt(2.0)),
+        q_(twin_q(D, A, c.hidden, std::sqrt(2.0))),
+        q_target_(twin_q(D, A, c.hidden, std::sqrt(2.0))),
         v_(relu_mlp(D, c.hidden, 1, std::sqrt(2.0))),
         policy_(D, A, c.hidden) {
     for (torch::nn::Module* m : std::initializer_list<torch::nn::Module*>{
              q_.get(), q_target_.get(), v_.get(), policy_.get()})
       m->to(device);
-    make_target(*q_, *q_target_);
+    rl::make_target(*q_, *q_target_);
     q_opt_ = std::make_unique<torch::optim::Adam>(q_->parameters(),
                                                   torch::optim::AdamOptions(c.q_lr));
     v_opt_ = std::make_unique<torch::optim::Adam>(v_->parameters(),
@@ -146,7 +146,7 @@ class Iql final : public OfflineAlgorithm {
 
  private:
   IqlConfig c_;
-  TwinQ q_, q_target_;
+  rl::QCritic q_, q_target_;
   torch::nn::Sequential v_;
   IqlPolicy policy_;
   std::unique_ptr<torch::optim::Adam> q_opt_, v_opt_, policy_opt_;

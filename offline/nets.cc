@@ -32,30 +32,15 @@ torch::nn::Sequential relu_mlp(int64_t in, const std::vector<int>& hidden, int64
   return net;
 }
 
-TwinQImpl::TwinQImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
-                     double orthogonal_gain) {
-  q1 = register_module("q1", relu_mlp(obs_dim + act_dim, hidden, 1, orthogonal_gain));
-  q2 = register_module("q2", relu_mlp(obs_dim + act_dim, hidden, 1, orthogonal_gain));
-}
-
-std::pair<torch::Tensor, torch::Tensor> TwinQImpl::forward(const torch::Tensor& obs,
-                                                           const torch::Tensor& act) {
-  const auto x = torch::cat({obs, act}, 1);
-  return {q1->forward(x).squeeze(1), q2->forward(x).squeeze(1)};
-}
-
-torch::Tensor TwinQImpl::first(const torch::Tensor& obs, const torch::Tensor& act) {
-  return q1->forward(torch::cat({obs, act}, 1)).squeeze(1);
+rl::QCritic twin_q(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
+                   double orthogonal_gain) {
+  return rl::QCritic(relu_mlp(obs_dim + act_dim, hidden, 1, orthogonal_gain),
+                     relu_mlp(obs_dim + act_dim, hidden, 1, orthogonal_gain));
 }
 
 ObsNormImpl::ObsNormImpl(int64_t dim) {
   mean = register_buffer("mean", torch::zeros({dim}));
   sd = register_buffer("std", torch::ones({dim}));
-}
-
-void make_target(torch::nn::Module& net, torch::nn::Module& target) {
-  rl::polyak_update(net, target, 0.0);
-  for (auto& p : target.parameters()) p.set_requires_grad(false);
 }
 
 }  // namespace bidex::offline

@@ -8,6 +8,8 @@
 
 #include <torch/torch.h>
 
+#include "rl/policy.h"
+
 namespace bidex::offline {
 
 // Linear + ReLU per `hidden` width; `orthogonal_gain` > 0 replaces the default weights with
@@ -18,17 +20,9 @@ torch::nn::Sequential relu_trunk(int64_t in, const std::vector<int>& hidden,
 torch::nn::Sequential relu_mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
                                double orthogonal_gain = 0);
 
-// Two critics Q(s, a) on the observation and action side by side.
-struct TwinQImpl : torch::nn::Module {
-  TwinQImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
-            double orthogonal_gain = 0);
-  // (q1, q2), each [n]
-  std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
-                                                  const torch::Tensor& act);
-  torch::Tensor first(const torch::Tensor& obs, const torch::Tensor& act);  // q1 only
-  torch::nn::Sequential q1{nullptr}, q2{nullptr};
-};
-TORCH_MODULE(TwinQ);
+// Twin critics Q(s, a) (rl::QCritic) of relu_mlp networks.
+rl::QCritic twin_q(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
+                   double orthogonal_gain = 0);
 
 // (obs - mean) / std with the dataset's mean and std (buffers: saved with the actor); identity
 // until set.
@@ -38,8 +32,5 @@ struct ObsNormImpl : torch::nn::Module {
   torch::Tensor mean, sd;  // buffers "mean" and "std"
 };
 TORCH_MODULE(ObsNorm);
-
-// Target networks start as copies and never take gradients.
-void make_target(torch::nn::Module& net, torch::nn::Module& target);
 
 }  // namespace bidex::offline

@@ -22,13 +22,13 @@ class Td3bc final : public OfflineAlgorithm {
         c_(c),
         actor_(relu_mlp(D, c.hidden, A)),
         actor_target_(relu_mlp(D, c.hidden, A)),
-        critic_(D, A, c.hidden),
-        critic_target_(D, A, c.hidden) {
+        critic_(twin_q(D, A, c.hidden)),
+        critic_target_(twin_q(D, A, c.hidden)) {
     for (torch::nn::Module* m : std::initializer_list<torch::nn::Module*>{
              actor_.get(), actor_target_.get(), critic_.get(), critic_target_.get()})
       m->to(device);
-    make_target(*actor_, *actor_target_);
-    make_target(*critic_, *critic_target_);
+    rl::make_target(*actor_, *actor_target_);
+    rl::make_target(*critic_, *critic_target_);
     actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
                                                       torch::optim::AdamOptions(c.actor_lr));
     critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),
@@ -99,7 +99,7 @@ class Td3bc final : public OfflineAlgorithm {
  private:
   Td3bcConfig c_;
   torch::nn::Sequential actor_, actor_target_;
-  TwinQ critic_, critic_target_;
+  rl::QCritic critic_, critic_target_;
   std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_;
 };
 

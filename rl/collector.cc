@@ -20,7 +20,7 @@ namespace {
 class HostCollector : public Collector {
  public:
   HostCollector(taskpack::TaskPack& env, const torch::Device& device, bool record)
-      : env_(env), device_(device), record_(record) {
+      : Collector(record), env_(env), device_(device) {
     const int64_t N = env.nslot(), D = env.obs_dim();
     auto host = torch::TensorOptions().dtype(torch::kFloat32).pinned_memory(device.is_cuda());
     // one transfer per step:
@@ -99,7 +99,6 @@ class HostCollector : public Collector {
 
   taskpack::TaskPack& env_;
   torch::Device device_;
-  bool record_;
   torch::Tensor staging_;
   torch::Tensor no_ids_, no_final_obs_;  // what a step that cut no episode hands back
 };
@@ -107,7 +106,7 @@ class HostCollector : public Collector {
 class DeviceCollector : public Collector {
  public:
   DeviceCollector(taskpack::WarpPack& env, const torch::Device& device, bool record)
-      : env_(env), device_(device), record_(record) {
+      : Collector(record), env_(env), device_(device) {
     if (env.on_gpu() != device.is_cuda())
       throw Error(std::string("the pack steps on ") + (env.on_gpu() ? "the GPU" : "the CPU") +
                   " (" + env.device() + ") but the learner is on " + device.str() +
@@ -155,7 +154,6 @@ class DeviceCollector : public Collector {
 
   taskpack::WarpPack& env_;
   torch::Device device_;
-  bool record_;
   torch::Tensor actions_, obs_, final_obs_, reward_, done_, bootstrap_;
 };
 

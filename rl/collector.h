@@ -30,9 +30,14 @@ class Collector {
   virtual Transition step(const torch::Tensor& actions) = 0;
   // Seconds spent inside the pack's step since the last call (what simulation costs).
   double take_sim_seconds();
+  // Ends record mode (make_collector): the recorder has what it wanted, and the steps after it
+  // copy no more than training needs.
+  void stop_recording() { record_ = false; }
 
  protected:
+  explicit Collector(bool record) : record_(record) {}
   double sim_s_ = 0;
+  bool record_;
 };
 
 // The collector of a CPU or GPU pack for a learner on `device`. A GPU pack needs its learner on

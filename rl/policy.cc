@@ -116,6 +116,15 @@ QCriticImpl::QCriticImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int
   if (twin) q2 = register_module("q2", mlp(obs_dim + act_dim, hidden, 1, activation, 1.0));
 }
 
+QCriticImpl::QCriticImpl(torch::nn::Sequential q1_net, torch::nn::Sequential q2_net) {
+  q1 = register_module("q1", std::move(q1_net));
+  if (q2_net) q2 = register_module("q2", std::move(q2_net));
+}
+
+torch::Tensor QCriticImpl::first(const torch::Tensor& obs, const torch::Tensor& actions) {
+  return q1->forward(torch::cat({obs, actions}, 1)).squeeze(1);
+}
+
 std::pair<torch::Tensor, torch::Tensor> QCriticImpl::forward(const torch::Tensor& obs,
                                                              const torch::Tensor& actions) {
   const auto x = torch::cat({obs, actions}, 1);
@@ -128,6 +137,11 @@ void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep) 
   auto s = src.parameters();
   auto d = dst.parameters();
   for (size_t i = 0; i < s.size(); ++i) d[i].mul_(keep).add_(s[i], 1.0 - keep);
+}
+
+void make_target(torch::nn::Module& src, torch::nn::Module& target) {
+  polyak_update(src, target, 0.0);
+  for (auto& p : target.parameters()) p.set_requires_grad(false);
 }
 
 }  // namespace bidex::rl

@@ -43,15 +43,22 @@ torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t ou
 
 // Target networks: dst = keep x dst + (1 - keep) x src, parameter by parameter (keep = 0 copies).
 void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep);
+// A target network's start: a copy of `src` that never takes gradients.
+void make_target(torch::nn::Module& src, torch::nn::Module& target);
 
 // Q(s, a) on the observation and action side by side: two critics (`q1`, `q2`) for SAC's and
 // TD3's clipped double Q, or one (`twin` false, DDPG), whose value forward() then gives twice.
 struct QCriticImpl : torch::nn::Module {
   QCriticImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
               const std::string& activation, bool twin);
+  // From given networks of input obs_dim + act_dim and output 1 (q2 null: one critic); the
+  // offline family's keep their original's initialisation.
+  QCriticImpl(torch::nn::Sequential q1_net, torch::nn::Sequential q2_net);
   // (q1, q2), each [n]
   std::pair<torch::Tensor, torch::Tensor> forward(const torch::Tensor& obs,
                                                   const torch::Tensor& actions);
+  // q1 alone, [n] (actor losses)
+  torch::Tensor first(const torch::Tensor& obs, const torch::Tensor& actions);
   torch::nn::Sequential q1{nullptr}, q2{nullptr};
 };
 TORCH_MODULE(QCritic);

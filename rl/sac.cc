@@ -80,8 +80,7 @@ class SacAlgorithm final : public Algorithm {
     actor_->to(device);
     critic_->to(device);
     target_->to(device);
-    polyak_update(*critic_, *target_, 0.0);
-    for (auto& p : target_->parameters()) p.set_requires_grad(false);
+    make_target(*critic_, *target_);
     log_alpha_ = torch::full({std::max<int64_t>(ntasks, 1)}, std::log(c_.init_alpha),
                              torch::TensorOptions().dtype(torch::kFloat32).device(device))
                      .set_requires_grad(true);

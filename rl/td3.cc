@@ -47,10 +47,8 @@ class Td3Algorithm final : public Algorithm {
     for (torch::nn::Module* m : std::initializer_list<torch::nn::Module*>{
              actor_.get(), actor_target_.get(), critic_.get(), critic_target_.get()})
       m->to(device);
-    polyak_update(*actor_, *actor_target_, 0.0);
-    polyak_update(*critic_, *critic_target_, 0.0);
-    for (auto& p : actor_target_->parameters()) p.set_requires_grad(false);
-    for (auto& p : critic_target_->parameters()) p.set_requires_grad(false);
+    make_target(*actor_, *actor_target_);
+    make_target(*critic_, *critic_target_);
     actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
                                                       torch::optim::AdamOptions(c_.lr));
     critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),

@@ -421,6 +421,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       if (recorder && !recorder->step(actions, tr)) {
         recorder->finish();
         recorder.reset();
+        collector.stop_recording();
       }
       obs = tr.obs;
     }

@@ -102,7 +102,7 @@ taskpack::PackSpec eval_pack(const TrainConfig& config, const std::string& split
 std::string default_run_dir(const TrainConfig& c);
 
 // A trained policy loaded from a run folder (its config.yaml and a checkpoint, default the
-// newest), acting deterministically (the Gaussian's mean), on the CPU.
+// newest), acting deterministically (the Gaussian's mean) or sampling, on the CPU unless asked.
 class LoadedPolicy {
  public:
   // `device`: where it acts (cpu or cuda; act() is on the CPU either way).
