@@ -10,6 +10,7 @@
 
 #include "apps/commands.h"
 #include "core/error.h"
+#include "marl/algorithms.h"
 #include "metarl/algorithms.h"
 #include "offline/algorithms.h"
 
@@ -29,6 +30,7 @@ int main(int argc, char** argv) {
   // algorithm families outside rl: one registration each
   bidex::metarl::register_algorithms();
   bidex::offline::register_algorithms();
+  bidex::marl::register_algorithms();
   CLI::App app{"bidex: bimanual dexterous manipulation benchmark (two Shadow Hands, batched MuJoCo)"};
   app.require_subcommand(1);
   app.set_help_all_flag("--help-all", "Print help for every command");

@@ -88,6 +88,14 @@ std::vector<AgentSpec> agents_per_hand(const Layout& obs, const Layout& act) {
   return agents;
 }
 
+const std::vector<HandPart>& hand_parts() {
+  // tree order of the actuated joints: WRJ1 WRJ0 | FFJ3-1 | MFJ3-1 | RFJ3-1 | LFJ4-1 | THJ4-0
+  static const std::vector<HandPart> parts = {{"palm", 0, 2, true}, {"ff", 2, 5, false},
+                                              {"mf", 5, 8, false},  {"rf", 8, 11, false},
+                                              {"lf", 11, 15, false}, {"th", 15, 20, false}};
+  return parts;
+}
+
 TaskSpec two_hand_spec(std::string id, std::string paper_name, std::string original_name,
                        HumanAge age, Difficulty difficulty, std::string skill, int episode_length,
                        bool free_base) {

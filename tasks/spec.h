@@ -102,4 +102,16 @@ TaskSpec two_hand_spec(std::string id, std::string paper_name, std::string origi
 // task tail), and its own action slices.
 std::vector<AgentSpec> agents_per_hand(const Layout& obs, const Layout& act);
 
+// The six parts of one hand that the original's finger agents act on (its handAgentIndex ids
+// 0-5, in that order): the palm (the wrist's two joints, and the base's six forces and torques
+// when the base is free), then the first, middle, ring and little fingers and the thumb. Each
+// holds a range of the hand's `<side>.joints` slice (the 20 actuated joints in tree order).
+struct HandPart {
+  std::string name;       // palm, ff, mf, rf, lf, th
+  int joint_begin = 0;    // [joint_begin, joint_end) of <side>.joints
+  int joint_end = 0;
+  bool base = false;      // also the base slices (free bases only)
+};
+const std::vector<HandPart>& hand_parts();
+
 }  // namespace bidex::tasks

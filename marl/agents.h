@@ -1,0 +1,77 @@
+// Agents of the multi-agent setting: which observation columns each agent sees and which action
+// columns it sets, derived from a task's named layout (tasks/spec.h). Three splits:
+//   hand    two agents, each with its hand's action slices (the original's default);
+//   finger  six agents per hand on tasks::hand_parts(): palm (wrist, and the base when free),
+//           ff, mf, rf, lf, th (the original's [[0], [1], ..., [5]]);
+//   a list  any grouping, written in YAML (below).
+// By default an agent sees the blocks of the hands it acts on plus every non-hand slice (object,
+// goal: the task tail), as the original's agents do; the critic of a centralised algorithm sees
+// the whole observation. Splits are checked against the layout: every action column belongs to
+// exactly one agent, and a bad grouping is a ConfigError naming the columns.
+//
+// The YAML form (the `agents` key of a multi-agent section, or the file of --agents FILE):
+//   - a list of agents, each a map
+//       {name: right_palm, act: [right.palm], obs: [right, tail]}
+//     `act` names action slices of the layout (right.joints, right.base_translation, ...) or hand
+//     parts (right.palm, right.ff, ..., left.th; right.base: both base slices); `obs` (optional)
+//     names observation slices, `right` / `left` (every slice of that hand's block) or `tail`;
+//   - or the original's handAgentIndex, a list of groups of part ids applied to both hands:
+//       [[0], [1, 2, 3, 4, 5]]   (four agents: right_0, right_1, left_0, left_1)
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <torch/torch.h>
+
+#include "core/yaml.h"
+#include "tasks/spec.h"
+
+namespace bidex::marl {
+
+struct Agent {
+  std::string name;               // "right", "left_ff", or as written
+  std::vector<int64_t> obs_cols;  // observation columns it sees, ascending
+  std::vector<int64_t> act_cols;  // action columns it sets, ascending
+  std::vector<std::string> obs_names, act_names;  // the slices / parts, as resolved
+};
+
+struct AgentSplit {
+  std::string kind;  // hand, finger or custom
+  std::vector<Agent> agents;
+  int64_t obs_dim = 0, act_dim = 0;  // the task's full widths
+};
+
+// The split `agents` names for `spec`: the scalar `hand` or `finger`, or a list (above). `where`
+// names the file and key in errors (e.g. "run/config.yaml" key "mappo.agents").
+AgentSplit split_agents(const tasks::TaskSpec& spec, const YamlView& agents);
+AgentSplit hand_split(const tasks::TaskSpec& spec);
+AgentSplit finger_split(const tasks::TaskSpec& spec);
+
+// One line per agent ("right_ff  sees 211 (right, tail)  acts on 3: [2, 5)"), for bidex info.
+std::string describe(const AgentSplit& split);
+
+// The split on a device: each agent's view of a batch of full observations, and the full action
+// rows assembled from the agents' own.
+class AgentViews {
+ public:
+  AgentViews(const AgentSplit& split, const torch::Device& device);
+  int64_t count() const { return static_cast<int64_t>(obs_idx_.size()); }
+  int64_t obs_dim(int64_t i) const { return obs_idx_[i].numel(); }
+  int64_t act_dim(int64_t i) const { return act_idx_[i].numel(); }
+  // [..., D] full observations -> [..., obs_dim(i)] what agent i sees
+  torch::Tensor obs(const torch::Tensor& full, int64_t i) const;
+  // [..., A] full actions -> [..., act_dim(i)] agent i's part
+  torch::Tensor actions(const torch::Tensor& full, int64_t i) const;
+  // The agents' actions [..., act_dim(i)], in agent order -> [..., A]
+  torch::Tensor assemble(const std::vector<torch::Tensor>& parts) const;
+  const AgentSplit& split() const { return split_; }
+
+ private:
+  AgentSplit split_;
+  std::vector<torch::Tensor> obs_idx_, act_idx_;  // long, on the device
+  int64_t act_dim_ = 0;
+};
+
+}  // namespace bidex::marl
