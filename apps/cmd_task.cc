@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/progress.h"
+#include "marl/agents.h"
 #include "tasks/env.h"
 #include "tasks/registry.h"
 #include "tasks/warp_env.h"
@@ -45,9 +46,11 @@ void print_layout(const char* title, const tasks::Layout& l) {
                 s.goal ? "(goal) " : "", s.doc.c_str());
 }
 
-json task_spec_json(const tasks::TaskSpec& sp) {
+json task_spec_json(const tasks::TaskSpec& sp, const marl::AgentSplit& split) {
   json agents = json::array();
-  for (auto& a : sp.agents) agents.push_back({{"name", a.name}, {"obs", a.obs}, {"act", a.act}});
+  for (auto& a : split.agents)
+    agents.push_back({{"name", a.name}, {"obs", a.obs_names}, {"act", a.act_names},
+                      {"obs_dim", a.obs_cols.size()}, {"act_columns", a.act_cols}});
   json terms = json::array();
   for (auto& t : sp.reward_terms) terms.push_back({{"name", t.name}, {"doc", t.doc}});
   return {{"id", sp.id},
@@ -68,6 +71,7 @@ json task_spec_json(const tasks::TaskSpec& sp) {
           {"obs", layout_json(sp.obs)},
           {"act", layout_json(sp.act)},
           {"agents", agents},
+          {"agent_split", split.kind},
           {"reward_terms", terms},
           {"default_config", tasks::default_task_config(sp.id)}};
 }
@@ -76,7 +80,7 @@ json task_spec_json(const tasks::TaskSpec& sp) {
 
 void add_info_command(CLI::App& app) {
   struct Opts {
-    std::string task;
+    std::string task, agents = "hand";
     bool json = false;
   };
   auto o = std::make_shared<Opts>();
@@ -85,11 +89,17 @@ void add_info_command(CLI::App& app) {
                                          "slice, agents and reward terms");
   cmd->add_option("--task", o->task, "Task id (" + task_ids() + ")")->required();
   cmd->add_flag("--json", o->json, "Print JSON instead of text");
-  cmd->footer("Example:\n  bidex info --task catch_underarm\n  bidex info --task hand_over --json");
+  cmd->add_option("--agents", o->agents,
+                  "The multi-agent split to show: hand, finger, or a YAML file of agents "
+                  "(bidex train --agents)")
+      ->capture_default_str();
+  cmd->footer("Examples:\n  bidex info --task catch_underarm\n  bidex info --task hand_over --json\n"
+              "  bidex info --task hand_over --agents finger");
   cmd->callback([o] {
     const tasks::TaskSpec& sp = tasks::find_task(o->task).spec();
+    const marl::AgentSplit split = marl::agents_from_arg(sp, o->agents);
     if (o->json) {
-      std::printf("%s\n", task_spec_json(sp).dump(2).c_str());
+      std::printf("%s\n", task_spec_json(sp, split).dump(2).c_str());
       return;
     }
     std::printf("%s  %s (original: %s)\n", sp.versioned_id().c_str(), sp.paper_name.c_str(),
@@ -105,13 +115,8 @@ void add_info_command(CLI::App& app) {
     print_layout("observation", sp.obs);
     std::printf("\n");
     print_layout("action", sp.act);
-    std::printf("\nagents (multi-agent split):\n");
-    for (auto& a : sp.agents) {
-      int od = 0, ad = 0;
-      for (auto& n : a.obs) od += sp.obs.at(n).size;
-      for (auto& n : a.act) ad += sp.act.at(n).size;
-      std::printf("  %-6s observes %d values, acts on %d\n", a.name.c_str(), od, ad);
-    }
+    std::printf("\nagents (multi-agent split '%s'; the critic sees all %d values):\n%s",
+                split.kind.c_str(), sp.obs.dim(), marl::describe(split).c_str());
     std::printf("\nreward = sum of terms:\n");
     for (auto& t : sp.reward_terms) std::printf("  %-16s %s\n", t.name.c_str(), t.doc.c_str());
   });

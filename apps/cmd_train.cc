@@ -20,6 +20,7 @@
 #include "core/error.h"
 #include "core/files.h"
 #include "core/version.h"
+#include "marl/agents.h"
 #include "offline/dataset.h"
 #include "offline/recorder.h"
 #include "registry/registry.h"
@@ -197,6 +198,14 @@ void print_scores(const rl::TrainResult& r, const RunRecorder& rec) {
                 rec.normalised(e.task, e.mean_return).c_str());
 }
 
+// "ippo, mappo, happo, hatrpo, maddpg": the multi-agent algorithms.
+std::string marl_names() {
+  std::string s;
+  for (auto& a : rl::algorithm_registry())
+    if (a.multi_agent) s += (s.empty() ? "" : ", ") + a.name;
+  return s;
+}
+
 // "bc, bcq, td3bc, iql": the offline algorithms.
 std::string offline_names() {
   std::string s;
@@ -207,7 +216,7 @@ std::string offline_names() {
 
 void add_train_command(CLI::App& app) {
   struct Opts {
-    std::string task, suite, algo, config, run, resume, registry, dataset, replay;
+    std::string task, suite, algo, config, run, resume, registry, dataset, replay, agents;
     std::vector<std::string> overrides;
     int64_t stop_after = 0, replay_steps = 1000000;
     double time_limit = 0;
@@ -230,6 +239,10 @@ void add_train_command(CLI::App& app) {
   cmd->add_option("--dataset", o->dataset,
                   "Offline algorithms (bc, bcq, td3bc, iql): the dataset to learn from (a folder "
                   "of bidex collect, or its main_data.hdf5); its task is the run's");
+  cmd->add_option("--agents", o->agents,
+                  "Multi-agent algorithms (" + marl_names() + "): hand (one agent per hand, the "
+                  "default), finger (palm and each finger of each hand), or a YAML file of "
+                  "agents (marl/README.md)");
   cmd->add_option("--record-replay", o->replay,
                   "Also write the run's first --replay-steps transitions as a replay dataset in "
                   "this folder (a share of the slots, reaching the count about halfway through)");
@@ -272,6 +285,7 @@ void add_train_command(CLI::App& app) {
       "  bidex train --resume runs/hand_over-ppo-20261122-120000-s0\n"
       "  bidex train --algo td3bc --dataset datasets/hand_over/expert-v0\n"
       "  bidex train --task hand_over --record-replay datasets/hand_over/replay-v0\n"
+      "  bidex train --task hand_over --algo happo --agents finger\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
   cmd->callback([o] {
     rl::TrainOptions to;
@@ -289,9 +303,10 @@ void add_train_command(CLI::App& app) {
     try {
       if (!o->resume.empty()) {
         if (!o->task.empty() || !o->suite.empty() || !o->overrides.empty() ||
-            !o->config.empty() || !o->run.empty() || !o->algo.empty() || !o->dataset.empty())
+            !o->config.empty() || !o->run.empty() || !o->algo.empty() || !o->dataset.empty() ||
+            !o->agents.empty())
           throw Error("--resume continues a run with its own config.yaml: drop --task, --suite, "
-                      "--algo, --dataset, --config, --run and -o");
+                      "--algo, --dataset, --agents, --config, --run and -o");
         if (!o->replay.empty())
           throw Error("--record-replay records a run's stream from its first step: it goes "
                       "with a new run, not --resume");
@@ -350,8 +365,19 @@ void add_train_command(CLI::App& app) {
         }
         const std::string file = o->config.empty() ? rl::default_train_config(algo) : o->config;
         const std::string target = o->suite.empty() ? o->task : o->suite;
+        std::vector<std::string> overrides = o->overrides;
+        if (!o->agents.empty()) {
+          const rl::AlgorithmInfo info = rl::find_algorithm(algo);
+          if (!info.multi_agent)
+            throw Error("train: --agents goes with a multi-agent algorithm (" + marl_names() +
+                        "); --algo " + algo + " acts as one agent");
+          // checked against the task's layout now; a file's errors name it
+          std::string value;
+          marl::agents_from_arg(tasks::find_task(o->task).spec(), o->agents, &value);
+          overrides.insert(overrides.begin(), info.section + ".agents=" + value);
+        }
         const std::string yaml =
-            rl::resolve_train_yaml(file, algo, target, o->overrides, dataset);
+            rl::resolve_train_yaml(file, algo, target, overrides, dataset);
         const rl::TrainConfig c = rl::parse_train_config(yaml, file);
         const std::string dir = o->run.empty() ? rl::default_run_dir(c) : o->run;
         r = rl::train_new(yaml, dir, to);

@@ -53,9 +53,9 @@ std::string join(const std::vector<std::string>& v) {
   return s;
 }
 
-// "[20, 26) (right.base_translation, right.base_rotation)": `cols` (ascending) as ranges, with
-// the layout slices they fall in
-std::string cols_text(const std::vector<int64_t>& cols, const tasks::Layout& layout) {
+}  // namespace
+
+std::string ranges_text(const std::vector<int64_t>& cols) {
   std::string out;
   for (size_t i = 0; i < cols.size();) {
     size_t j = i + 1;
@@ -64,6 +64,15 @@ std::string cols_text(const std::vector<int64_t>& cols, const tasks::Layout& lay
            std::to_string(cols[j - 1] + 1) + ")";
     i = j;
   }
+  return out;
+}
+
+namespace {
+
+// "[20, 26) (right.base_translation, right.base_rotation)": `cols` (ascending) as ranges, with
+// the layout slices they fall in
+std::string cols_text(const std::vector<int64_t>& cols, const tasks::Layout& layout) {
+  const std::string out = ranges_text(cols);
   std::vector<std::string> names;
   for (auto& s : layout.slices())
     for (int64_t c : cols)
@@ -81,15 +90,18 @@ std::vector<int64_t> obs_columns(const tasks::TaskSpec& spec, const std::vector<
   for (auto& name : obs) {
     bool found = false;
     for (auto& s : spec.obs.slices()) {
-      const bool take = s.name == name ||
-                        (name == "tail" && !is_hand_slice(s.name)) ||
-                        ((name == "right" || name == "left") && has_prefix(s.name, name + "."));
+      const bool take = s.name == name || has_prefix(s.name, name + ".") ||
+                        (name == "tail" && !is_hand_slice(s.name));
       if (!take) continue;
       found = true;
       for (int c = s.start; c < s.end(); ++c) cols.insert(c);
     }
     if (!found) {
-      std::vector<std::string> known = {"right", "left", "tail"};
+      std::vector<std::string> known = {"tail"};
+      for (auto& s : spec.obs.slices()) {
+        const std::string group = s.name.substr(0, s.name.find('.'));
+        if (std::find(known.begin(), known.end(), group) == known.end()) known.push_back(group);
+      }
       for (auto& s : spec.obs.slices()) known.push_back(s.name);
       const std::string expected = "observation slices of " + spec.id + " (" + join(known) + ")";
       if (where) where->fail(expected, "'" + name + "'");
@@ -263,14 +275,35 @@ AgentSplit split_agents(const tasks::TaskSpec& spec, const YamlView& agents) {
   return split;
 }
 
+AgentSplit agents_from_arg(const tasks::TaskSpec& spec, const std::string& arg,
+                           std::string* yaml) {
+  if (arg == "hand" || arg == "finger") {
+    if (yaml) *yaml = arg;
+    return arg == "hand" ? hand_split(spec) : finger_split(spec);
+  }
+  YamlView file = YamlView::load_file(arg);  // missing: an IoError naming it
+  const YamlView list = file.is_map() ? file.child("agents") : file;
+  if (file.is_map()) file.allow_keys({"agents"});
+  AgentSplit split = split_agents(spec, list);
+  if (yaml) {
+    YAML::Emitter em;
+    em.SetSeqFormat(YAML::Flow);
+    em.SetMapFormat(YAML::Flow);
+    em << list.node();
+    *yaml = em.c_str();
+  }
+  return split;
+}
+
 std::string describe(const AgentSplit& split) {
   std::string out;
   size_t w = 0;
   for (auto& a : split.agents) w = std::max(w, a.name.size());
   for (auto& a : split.agents) {
     std::string line = "  " + a.name + std::string(w - a.name.size() + 2, ' ');
-    line += "sees " + std::to_string(a.obs_cols.size()) + " (" + join(a.obs_names) + "), acts on " +
-            std::to_string(a.act_cols.size()) + " (" + join(a.act_names) + ")\n";
+    line += "sees " + std::to_string(a.obs_cols.size()) + " (" + join(a.obs_names) +
+            "), acts on " + std::to_string(a.act_cols.size()) + ": " + ranges_text(a.act_cols) +
+            " (" + join(a.act_names) + ")\n";
     out += line;
   }
   return out;

@@ -14,7 +14,8 @@
 //       {name: right_palm, act: [right.palm], obs: [right, tail]}
 //     `act` names action slices of the layout (right.joints, right.base_translation, ...) or hand
 //     parts (right.palm, right.ff, ..., left.th; right.base: both base slices); `obs` (optional)
-//     names observation slices, `right` / `left` (every slice of that hand's block) or `tail`;
+//     names observation slices, groups of them (`right`, `object`, `goal`: every slice named
+//     right.*, ...) or `tail` (every slice outside the hand blocks);
 //   - or the original's handAgentIndex, a list of groups of part ids applied to both hands:
 //       [[0], [1, 2, 3, 4, 5]]   (four agents: right_0, right_1, left_0, left_1)
 #pragma once
@@ -49,8 +50,17 @@ AgentSplit split_agents(const tasks::TaskSpec& spec, const YamlView& agents);
 AgentSplit hand_split(const tasks::TaskSpec& spec);
 AgentSplit finger_split(const tasks::TaskSpec& spec);
 
-// One line per agent ("right_ff  sees 211 (right, tail)  acts on 3: [2, 5)"), for bidex info.
+// The --agents argument of bidex train and info: hand, finger, or a YAML file holding a list of
+// agents (or a map with the key `agents`); a bad file's errors name it. `yaml` (if given) gets
+// the value for the run's config, in YAML's flow style.
+AgentSplit agents_from_arg(const tasks::TaskSpec& spec, const std::string& arg,
+                           std::string* yaml = nullptr);
+
+// One line per agent ("right_ff  sees 211 (right, tail), acts on 3: [2, 5) (right.ff)"), for
+// bidex info.
 std::string describe(const AgentSplit& split);
+// Ascending columns as ranges: "[0, 2), [20, 26)".
+std::string ranges_text(const std::vector<int64_t>& cols);
 
 // The split on a device: each agent's view of a batch of full observations, and the full action
 // rows assembled from the agents' own.

@@ -19,10 +19,11 @@ void register_algorithms() {
                                           : make_hatrpo;
       std::string title = name;
       for (auto& ch : title) ch = static_cast<char>(std::toupper(ch));
-      rl::register_algorithm({name, title, TrainsOn::kTask, name}, make,
+      rl::register_algorithm({name, title, TrainsOn::kTask, name, false, true}, make,
                              [name](const YamlView& s) { read_onpolicy(s, name); });
     }
-    rl::register_algorithm({"maddpg", "MADDPG", TrainsOn::kTask, "maddpg"}, make_maddpg,
+    rl::register_algorithm({"maddpg", "MADDPG", TrainsOn::kTask, "maddpg", false, true},
+                           make_maddpg,
                            [](const YamlView& s) { read_maddpg(s); });
   });
 }

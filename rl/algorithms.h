@@ -25,6 +25,8 @@ struct AlgorithmInfo {
   // Adapts to each task at evaluation (meta-RL): bidex eval --split runs its protocol, and it
   // trains on the train split of a suite that has a test split.
   bool meta = false;
+  // Acts through agents (marl): its section has `agents`, set by bidex train --agents.
+  bool multi_agent = false;
 };
 
 // Reads a family's own YAML section strictly (a ConfigError naming the key). rl reads its own
