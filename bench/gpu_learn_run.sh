@@ -14,7 +14,8 @@
 #   bench/gpu_learn_run.sh train OUTDIR TASK SLOTS SECONDS TARGET [--algo A] [-o key=value ...]
 #       trains (or resumes the run of an earlier call) for SECONDS more, then writes the curve and
 #       the wall time and slot-steps at which the mean training return first reached TARGET;
-#       TASK may name a suite (MT1, MT4, MT20); results go to OUTDIR/TASK-ALGO (ALGO default ppo)
+#       TASK may name a suite (MT1, MT4, MT20); results go to OUTDIR/TASK-ALGO (ALGO default ppo;
+#       with --agents other than hand, OUTDIR/TASK-ALGO-AGENTS)
 #   bench/gpu_learn_run.sh meta OUTDIR SUITE ALGO SLOTS SECONDS EPISODES [-o key=value ...]
 #       meta-trains ALGO (maml, promp, rl2) on SUITE's train split for SECONDS, then evaluates the
 #       run on both splits (bidex eval --split train|test, EPISODES slots per task, on the CPU)
@@ -132,9 +133,13 @@ train)
   out=$(realpath -m "${1:?OUTDIR}"); task=${2:?TASK}; slots=${3:?SLOTS}; budget=${4:?SECONDS}
   target=${5:?TARGET}
   shift 5
-  algo=ppo
-  for ((i = 1; i < $#; ++i)); do [[ ${!i} == --algo ]] && { j=$((i + 1)); algo=${!j}; }; done
-  name="$task-$algo"
+  algo=ppo agents=
+  for ((i = 1; i < $#; ++i)); do
+    j=$((i + 1))
+    [[ ${!i} == --algo ]] && algo=${!j}
+    [[ ${!i} == --agents && ${!j} != hand ]] && agents=-$(basename "${!j}" .yaml)
+  done
+  name="$task-$algo$agents"
   mkdir -p "$out/$name" "$runs"
   run="$runs/$name-$slots"
   if [[ $task == M[TL]* ]]; then target_args=(--suite "$task"); else target_args=(--task "$task"); fi
