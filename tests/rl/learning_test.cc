@@ -3,59 +3,9 @@
 // configs/train/<algo>.yaml (64 slots, 30,720 slot-steps), training must lift the policy's mean
 // return well above the random policy's. Each bar sits at less than half of the smallest gain
 // measured over seeds 0-3 on two cores (bench/learning_seeds.sh).
-#include "tests/rl/rl_fixture.h"
+#include "tests/rl/learning_fixture.h"
 
-#include "rl/trainer.h"
-#include "tasks/env.h"
-
-using namespace bidex;
-
-namespace {
-// Mean return of `episodes` random-action episodes, one per slot.
-double random_return(int episodes, uint64_t seed) {
-  auto env = test::make_env("catch_underarm_raise", episodes, seed);
-  env->reset();
-  std::mt19937_64 rng(seed);
-  std::vector<float> a(size_t(episodes) * env->act_dim());
-  std::vector<double> ret(episodes, 0.0);
-  std::vector<uint8_t> done(episodes, 0);
-  int left = episodes;
-  while (left > 0) {
-    tasks::random_actions(a, rng);
-    env->step(a);
-    for (int s = 0; s < episodes; ++s) {
-      if (done[s]) continue;
-      ret[s] += env->reward[s];
-      if (env->terminated[s] || env->truncated[s]) {
-        done[s] = 1;
-        --left;
-      }
-    }
-  }
-  double sum = 0;
-  for (double r : ret) sum += r;
-  return sum / episodes;
-}
-
-// Trains `algo` with seed 1 and checks its policy's mean return over 64 evaluation episodes
-// against the random policy's plus `margin`.
-void check_learns(const std::string& algo, double margin) {
-  test::TaskTempDir tmp;
-  const std::string dir = tmp.file("run");
-  const std::string yaml = rl::resolve_train_yaml(rl::default_train_config(algo), algo,
-                                                  "catch_underarm_raise", {"seed=1"});
-  rl::TrainOptions o;
-  o.progress = false;
-  const auto r = rl::train_new(yaml, dir, o);
-  REQUIRE(r.steps >= 30720);
-  rl::LoadedPolicy policy(dir);
-  const auto trained = rl::evaluate(policy, 64, 777, 0);
-  const double random = random_return(64, 777);
-  INFO(algo << ": random " << random << ", trained " << trained.mean_return);
-  CHECK(trained.faults == 0);
-  CHECK(trained.mean_return > random + margin);
-}
-}  // namespace
+using bidex::test::check_learns;
 
 // on-policy: random 12.5, trained 20.5-22.5 (bench/results/learning-ci-2core-mujoco3.json)
 TEST_CASE("PPO learns catch_underarm_raise within its CI budget", "[rl][learning]") {
