@@ -88,7 +88,7 @@ MaddpgConfig read_maddpg(const YamlView& p) {
   p.allow_keys({"agents", "hidden", "activation", "feature_norm", "layer_norm", "horizon",
                 "gradient_steps", "policy_freq", "batch_size", "replay_size", "warmup_steps",
                 "lr", "critic_lr", "gamma", "polyak", "expl_noise", "huber_delta",
-                "max_grad_norm", "reward_scale"});
+                "max_grad_norm", "reward_scale", "preact_l2"});
   check_agents_form(p);
   MaddpgConfig c;
   c.net = read_net(p);
@@ -106,6 +106,7 @@ MaddpgConfig read_maddpg(const YamlView& p) {
   c.huber_delta = nonneg(p, "huber_delta");
   c.max_grad_norm = rl::read_real(p, "max_grad_norm", 0, 1e9, true);
   c.reward_scale = rl::read_real(p, "reward_scale", 0, 1e6, true);
+  c.preact_l2 = nonneg(p, "preact_l2");
   return c;
 }
 

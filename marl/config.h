@@ -75,6 +75,7 @@ struct MaddpgConfig {
   double huber_delta = 10.0;    // critic loss (0: squared error)
   double max_grad_norm = 10.0;
   double reward_scale = 1.0;
+  double preact_l2 = 0.0;       // actor loss + this x mean squared pre-tanh action (rl/td3.h)
 };
 
 // The readers (`algo` picks which keys an on-policy section has: HATRPO's own, MAPPO's

@@ -6,6 +6,7 @@
 #include "marl/algorithms.h"
 #include "rl/checkpoint.h"
 #include "rl/policy.h"
+#include "rl/td3.h"
 
 namespace bidex::marl {
 
@@ -114,8 +115,9 @@ std::pair<torch::Tensor, torch::Tensor> Maddpg::critic_step(const rl::ReplayBuff
 }
 
 torch::Tensor Maddpg::actor_step(int64_t i, const rl::ReplayBuffer::Batch& b) {
-  const auto own = actors_[i]->forward(views_.obs(b.obs, i));
-  const auto loss = -q(b.obs, maddpg_joint_action(views_, b.actions, i, own)).mean();
+  const auto pre = actors_[i]->preact(views_.obs(b.obs, i));
+  const auto joint = maddpg_joint_action(views_, b.actions, i, torch::tanh(pre));
+  const auto loss = rl::td3_actor_loss(q(b.obs, joint), pre, c_.preact_l2);
   actor_opts_[i]->zero_grad();
   loss.backward();
   torch::nn::utils::clip_grad_norm_(actors_[i]->parameters(), c_.max_grad_norm);

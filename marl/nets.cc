@@ -62,9 +62,7 @@ TanhActorImpl::TanhActorImpl(int64_t obs_dim, int64_t act_dim, const NetConfig& 
   out_ = register_module("action", head(body_width(obs_dim, net), act_dim, 0.01));
 }
 
-torch::Tensor TanhActorImpl::forward(const torch::Tensor& obs) {
-  return torch::tanh(out_(body_->forward(obs)));
-}
+torch::Tensor TanhActorImpl::preact(const torch::Tensor& obs) { return out_(body_->forward(obs)); }
 
 torch::Tensor value_error(const torch::Tensor& err, double delta) {
   if (delta <= 0) return 0.5 * err.pow(2);

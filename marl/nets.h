@@ -53,7 +53,9 @@ TORCH_MODULE(ValueNet);
 class TanhActorImpl : public torch::nn::Module {
  public:
   TanhActorImpl(int64_t obs_dim, int64_t act_dim, const NetConfig& net);
-  torch::Tensor forward(const torch::Tensor& obs);
+  torch::Tensor forward(const torch::Tensor& obs) { return torch::tanh(preact(obs)); }
+  // the action before tanh (the actor loss may penalise it: MaddpgConfig::preact_l2)
+  torch::Tensor preact(const torch::Tensor& obs);
 
  private:
   torch::nn::Sequential body_{nullptr};
