@@ -60,11 +60,55 @@ void assign(const std::vector<torch::Tensor>& params, const torch::Tensor& x) {
   }
 }
 
+}  // namespace
+
+NaturalStep natural_step(const std::vector<torch::Tensor>& params,
+                         const std::function<torch::Tensor()>& surrogate,
+                         const std::function<torch::Tensor()>& mean_kl,
+                         const NaturalStepSettings& s) {
+  NaturalStep out;
+  const auto loss = surrogate();
+  out.loss = loss.item<double>();
+  const auto g = flat(torch::autograd::grad({loss}, params));
+  auto fisher = [&](const torch::Tensor& v) {
+    const auto kl = mean_kl();
+    const auto dkl = flat(torch::autograd::grad({kl}, params, {}, true, true));
+    const auto hv = flat(torch::autograd::grad({(dkl * v).sum()}, params));
+    return hv + s.damping * v;
+  };
+  const auto x = conjugate_gradient(fisher, -g, s.cg_iters);
+  const double shs = 0.5 * (x * fisher(x)).sum().item<double>();
+  if (shs > 0 && std::isfinite(shs)) {
+    const auto full_step = s.step_fraction * std::sqrt(s.max_kl / shs) * x;
+    const double expected = -(g * full_step).sum().item<double>();
+    const auto x0 = flat(params).detach();
+    torch::NoGradGuard ng;
+    auto loss_at = [&](const torch::Tensor& p) {
+      assign(params, p);
+      return surrogate().item<double>();
+    };
+    auto kl_at = [&](const torch::Tensor& p) {
+      assign(params, p);
+      return mean_kl().item<double>();
+    };
+    const LineSearch ls = backtracking_line_search(loss_at, kl_at, x0, full_step, expected,
+                                                   s.max_kl, s.backtracks, s.accept_ratio);
+    assign(params, ls.params);
+    out.fraction = ls.fraction;
+    out.kl = mean_kl().item<double>();
+  }
+  return out;
+}
+
+namespace {
+
 class TrpoAlgorithm final : public GaussianOnPolicy {
  public:
   TrpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
                 const torch::Device& device)
-      : GaussianOnPolicy(config.ppo, D, A, N, device), t_(config.trpo) {
+      : GaussianOnPolicy(config.ppo, D, A, N, device) {
+    const TrpoConfig& t = config.trpo;
+    step_ = {t.max_kl, t.damping, t.cg_iters, t.backtracks, t.accept_ratio, t.step_fraction};
     critic_opt_ = std::make_unique<torch::optim::Adam>(model_->critic_parameters(),
                                                        torch::optim::AdamOptions(c_.lr));
   }
@@ -83,7 +127,6 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
     advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
 
     // the policy: one natural-gradient step within the KL bound
-    const auto params = model_->actor_parameters();
     auto surrogate = [&] {  // to minimise
       auto logp = gaussian_log_prob(actions, model_->mean(nobs), model_->log_std());
       return -(torch::exp(logp - logp_old) * advantages).mean();
@@ -91,37 +134,8 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
     auto mean_kl = [&] {
       return gaussian_kl(mu_old, log_std_old, model_->mean(nobs), model_->log_std()).mean();
     };
-    const auto loss = surrogate();
-    const double policy_loss = loss.item<double>();
-    const auto g = flat(torch::autograd::grad({loss}, params));
-    auto fisher = [&](const torch::Tensor& v) {
-      const auto kl = mean_kl();
-      const auto dkl = flat(torch::autograd::grad({kl}, params, {}, true, true));
-      const auto hv = flat(torch::autograd::grad({(dkl * v).sum()}, params));
-      return hv + t_.damping * v;
-    };
-    const auto x = conjugate_gradient(fisher, -g, t_.cg_iters);
-    double taken = 0, kl_after = 0;
-    const double shs = 0.5 * (x * fisher(x)).sum().item<double>();
-    if (shs > 0 && std::isfinite(shs)) {
-      const auto full_step = t_.step_fraction * std::sqrt(t_.max_kl / shs) * x;
-      const double expected = -(g * full_step).sum().item<double>();
-      const auto x0 = flat(params).detach();
-      torch::NoGradGuard ng;
-      auto loss_at = [&](const torch::Tensor& p) {
-        assign(params, p);
-        return surrogate().item<double>();
-      };
-      auto kl_at = [&](const torch::Tensor& p) {
-        assign(params, p);
-        return mean_kl().item<double>();
-      };
-      const LineSearch ls = backtracking_line_search(loss_at, kl_at, x0, full_step, expected,
-                                                     t_.max_kl, t_.backtracks, t_.accept_ratio);
-      assign(params, ls.params);
-      taken = ls.fraction;
-      kl_after = mean_kl().item<double>();
-    }
+    const NaturalStep step = natural_step(model_->actor_parameters(), surrogate, mean_kl, step_);
+    const double policy_loss = step.loss, taken = step.fraction, kl_after = step.kl;
 
     // the critic: Adam on the returns
     torch::Tensor targets = ret.reshape({B});
@@ -172,7 +186,7 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
   }
 
  private:
-  TrpoConfig t_;
+  NaturalStepSettings step_;
   std::unique_ptr<torch::optim::Adam> critic_opt_;
 };
 

@@ -35,6 +35,29 @@ LineSearch backtracking_line_search(const std::function<double(const torch::Tens
                                     double expected, double max_kl, int backtracks,
                                     double accept_ratio);
 
+// The policy's natural-gradient step, shared by TRPO and HATRPO.
+struct NaturalStepSettings {
+  double max_kl = 0.01;        // the KL bound of the step
+  double damping = 0.1;        // added to the Fisher matrix's diagonal
+  int cg_iters = 10;           // conjugate gradient iterations
+  int backtracks = 10;         // line-search trials, each halving the step
+  double accept_ratio = 0.5;   // least improvement accepted, as a share of the predicted one
+  double step_fraction = 1.0;  // the first trial's share of the full step
+};
+struct NaturalStep {
+  double loss = 0;      // the surrogate before the step
+  double fraction = 0;  // of the full step taken (0: none)
+  double kl = 0;        // the mean KL after the step (0 when no direction was found)
+};
+// Moves `params` one step that lowers surrogate() (a loss) within mean_kl() <= max_kl: the
+// direction by conjugate gradient on the damped Fisher matrix (the Hessian of mean_kl(), which
+// must be 0 with a zero gradient at the current parameters), scaled to the KL bound, then
+// backtracking_line_search. Parameters are left as they were when no trial is accepted.
+NaturalStep natural_step(const std::vector<torch::Tensor>& params,
+                         const std::function<torch::Tensor()>& surrogate,
+                         const std::function<torch::Tensor()>& mean_kl,
+                         const NaturalStepSettings& settings);
+
 std::unique_ptr<Algorithm> make_trpo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                      int64_t nslot, const torch::Device& device);
 
