@@ -68,7 +68,7 @@ TEST_CASE("bidex train --agents: runs, eval, render, resume and the registry",
     // the split is part of the run's config, so eval, render and resume act the same way
     const std::string cfg = read_file(run + "/config.yaml");
     CHECK(cfg.find("agents: " + c.want) != std::string::npos);
-    r = bidex_run("eval --run " + q(run) + " --episodes 4 --threads 1 --no-registry");
+    r = bidex_run("eval --run " + q(run) + " --episodes 4 --threads 1");
     INFO(r.out);
     CHECK(r.rc == 0);
     CHECK(r.out.find("mean return") != std::string::npos);
