@@ -1,6 +1,7 @@
 // marl/onpolicy: HAPPO's sequential correction and HATRPO's step against hand-worked cases, what
-// each critic sees, shared actors, checkpoints of every member, and tiny runs of IPPO, MAPPO,
-// HAPPO and HATRPO through the learning core (train, resume, evaluate).
+// each critic sees, shared actors, checkpoints of every member, a one-step bandit each member
+// learns, and tiny runs of IPPO, MAPPO, HAPPO and HATRPO through the learning core (train,
+// resume, evaluate).
 #include "tests/rl/rl_fixture.h"
 
 #include <algorithm>
@@ -437,6 +438,35 @@ TEST_CASE("IPPO, MAPPO, HAPPO and HATRPO train, resume and evaluate on catch_und
       const auto e = rl::evaluate(p, 4, 3, 1);
       CHECK(e.episodes == 4);
       CHECK(std::isfinite(e.mean_return));
+    }
+  }
+}
+
+TEST_CASE("every member raises the probability of better actions (one-step bandit)", "[marl]") {
+  const auto split = marl::hand_split(hand_over());
+  const int64_t r0 = split.agents[0].act_cols[0], l0 = split.agents[1].act_cols[0];
+  const int64_t N = 64, D = hand_over().obs.dim();
+  for (const char* algo : kAlgos) {
+    DYNAMIC_SECTION(algo) {
+      const std::string s = algo;
+      torch::manual_seed(9);
+      auto a = make(config(s, {s + ".horizon=4"}), N);
+      const auto obs = torch::randn({1, D}).expand({N, D}).contiguous();
+      auto first = [&] {
+        const auto m = a->actor(obs.narrow(0, 0, 1));
+        return std::make_pair(m[0][r0].item<double>(), m[0][l0].item<double>());
+      };
+      const auto before = first();
+      for (int it = 0; it < 10; ++it) {
+        const auto m = rollout_and_update(*a, obs);
+        INFO("update " << it << ": kl " << m[3] << ", " << a->metric_names()[4] << " " << m[4]);
+        if (s == "hatrpo") CHECK(m[3] <= 0.016 * 1.0001);
+      }
+      const auto after = first();
+      INFO(s << ": right " << before.first << " -> " << after.first << ", left "
+             << before.second << " -> " << after.second);
+      CHECK(after.first > before.first + 0.2);
+      CHECK(after.second > before.second + 0.2);
     }
   }
 }
