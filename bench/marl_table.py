@@ -14,11 +14,15 @@ ORIGINAL = {
     "pen": {},
 }
 HARL = {"pen": ("HARL HAPPO at 50M (read off its plot)", 185.0)}
+# the original's PPO on hand_over within our runs' range (means of its 10 seeds)
+ORIGINAL_PPO_POINTS = {"hand_over": "2e6:3.6,10e6:17.6"}
 
 rows = []
 for name in sorted(os.listdir(out)):
-    t = os.path.join(out, name, "time_to_target.json")
-    if not os.path.isfile(t):
+    # result.json: the committed form of the last call's time_to_target.json
+    t = next((os.path.join(out, name, f) for f in ("result.json", "time_to_target.json")
+              if os.path.isfile(os.path.join(out, name, f))), None)
+    if t is None:
         continue
     d = json.load(open(t))
     task, algo, *agents = name.split("-")
@@ -28,7 +32,7 @@ for name in sorted(os.listdir(out)):
                  "return_last_10_updates": d["return_last_10_updates"],
                  "train_fps_median": d["train_fps_median"], "machine": d["machine"],
                  "commit": d["commit"], "date": d["date"],
-                 "original_final": ORIGINAL.get(task, {}).get(algo),
+                 "original_final": None if agents else ORIGINAL.get(task, {}).get(algo),
                  "commands": d["commands"]})
 
 lines = ["| task | algorithm | agents | slot-steps | wall (s) | return (last 10 updates) | "
@@ -51,6 +55,8 @@ for task in sorted({r["task"] for r in rows}):
                      + os.path.join(out, r["run"], "metrics.csv")]
     for algo, v in ORIGINAL.get(task, {}).items():
         args += ["--line", f"the original's {algo.upper()} at 100M={v}"]
+    if task in ORIGINAL_PPO_POINTS:
+        args += ["--orig", f"the original's PPO={ORIGINAL_PPO_POINTS[task]}"]
     if task in HARL:
         args += ["--line", f"{HARL[task][0]}={HARL[task][1]}"]
     subprocess.run(args, check=True)

@@ -62,6 +62,13 @@ std::string describe(const AgentSplit& split);
 // Ascending columns as ranges: "[0, 2), [20, 26)".
 std::string ranges_text(const std::vector<int64_t>& cols);
 
+// Checkpoints hold the split they were trained with (each agent's observation and action
+// columns): write_split adds it to an archive, check_split refuses an archive of another split
+// with an Error naming `path` and both splits' agents and widths.
+void write_split(torch::serialize::OutputArchive& root, const AgentSplit& split);
+void check_split(torch::serialize::InputArchive& root, const AgentSplit& split,
+                 const std::string& path);
+
 // The split on a device: each agent's view of a batch of full observations, and the full action
 // rows assembled from the agents' own.
 class AgentViews {

@@ -23,25 +23,6 @@ torch::Tensor maddpg_joint_action(const AgentViews& views, const torch::Tensor& 
   return views.assemble(parts);
 }
 
-namespace {
-
-// A split as saved: [agents, then per agent: obs width, act width, obs columns, act columns]
-std::string describe_saved(const torch::Tensor& t) {
-  auto v = t.to(torch::kCPU).contiguous();
-  const auto* p = v.data_ptr<int64_t>();
-  const int64_t n = v.numel();
-  if (n == 0) return "no agents";
-  std::string widths;
-  int64_t at = 1;
-  for (int64_t k = 0; k < p[0] && at + 1 < n; ++k) {
-    widths += (k ? ", " : "") + std::to_string(p[at + 1]);
-    at += 2 + p[at] + p[at + 1];
-  }
-  return std::to_string(p[0]) + " agents acting on " + widths + " action columns";
-}
-
-}  // namespace
-
 Maddpg::Maddpg(const MaddpgConfig& config, const AgentSplit& split, int64_t nslot,
                const torch::Device& device)
     : c_(config), views_(split, device), device_(device) {
@@ -173,30 +154,8 @@ torch::Tensor Maddpg::sample_actor(const torch::Tensor& obs) {
   return explore(obs);
 }
 
-torch::Tensor Maddpg::split_tensor() const {
-  std::vector<int64_t> v = {views_.count()};
-  for (const auto& a : views_.split().agents) {
-    v.push_back(static_cast<int64_t>(a.obs_cols.size()));
-    v.push_back(static_cast<int64_t>(a.act_cols.size()));
-    v.insert(v.end(), a.obs_cols.begin(), a.obs_cols.end());
-    v.insert(v.end(), a.act_cols.begin(), a.act_cols.end());
-  }
-  return torch::tensor(v, torch::kInt64);
-}
-
-void Maddpg::check_split(torch::serialize::InputArchive& root, const std::string& path) const {
-  torch::Tensor saved;
-  root.read("agents", saved);
-  saved = saved.to(torch::kCPU);
-  const auto mine = split_tensor();
-  if (!saved.sizes().equals(mine.sizes()) || !saved.equal(mine))
-    throw Error("checkpoint " + path + ": holds the actors of " + describe_saved(saved) +
-                "; this run's agents (" + views_.split().kind + ") are " +
-                describe_saved(mine));
-}
-
 void Maddpg::save(torch::serialize::OutputArchive& root) {
-  root.write("agents", split_tensor());
+  write_split(root, views_.split());
   rl::write_part(root, "actors", *actor_list_);
   rl::write_part(root, "actor_targets", *target_list_);
   rl::write_part(root, "critic", *critic_);
@@ -209,7 +168,7 @@ void Maddpg::save(torch::serialize::OutputArchive& root) {
 
 void Maddpg::load(torch::serialize::InputArchive& root, const std::string& path) {
   rl::read_checked(path, "does not fit this run's networks", [&] {
-    check_split(root, path);
+    check_split(root, views_.split(), path);
     rl::read_module(root, "actors", *actor_list_, path, "this run's actors");
     rl::read_module(root, "actor_targets", *target_list_, path, "this run's target actors");
     rl::read_module(root, "critic", *critic_, path, "this run's critic");
@@ -227,7 +186,7 @@ void Maddpg::load(torch::serialize::InputArchive& root, const std::string& path)
 
 void Maddpg::load_actor(torch::serialize::InputArchive& root, const std::string& path) {
   rl::read_checked(path, "holds no actors", [&] {
-    check_split(root, path);
+    check_split(root, views_.split(), path);
     rl::read_module(root, "actors", *actor_list_, path, "this run's actors");
   });
 }

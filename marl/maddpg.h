@@ -70,8 +70,6 @@ class Maddpg final : public rl::Algorithm {
 
  private:
   torch::Tensor explore(const torch::Tensor& obs);  // actors + noise, clamped
-  torch::Tensor split_tensor() const;               // the split's columns, to check checkpoints
-  void check_split(torch::serialize::InputArchive& root, const std::string& path) const;
 
   MaddpgConfig c_;
   AgentViews views_;

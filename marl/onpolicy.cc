@@ -77,20 +77,6 @@ rl::NaturalStep trpo_actor_update(GaussianActor& actor, const AgentBatch& b,
   return rl::natural_step(actor->parameters(), surrogate, mean_kl, s);
 }
 
-namespace {
-
-std::string widths_text(const torch::Tensor& w, const AgentSplit* split) {
-  std::string s;
-  for (int64_t i = 0; i < w.size(0); ++i) {
-    s += i ? ", " : "";
-    if (split) s += split->agents[i].name + " ";
-    s += std::to_string(w[i][0].item<int64_t>()) + "/" + std::to_string(w[i][1].item<int64_t>());
-  }
-  return s;
-}
-
-}  // namespace
-
 OnPolicyMarl::OnPolicyMarl(OnPolicyMode mode, const OnPolicyConfig& config,
                            const AgentSplit& split, int64_t nslot, const torch::Device& device,
                            const std::string& algo)
@@ -354,31 +340,8 @@ const std::vector<std::string>& OnPolicyMarl::metric_names() const {
   return mode_ == OnPolicyMode::kSequentialTrpo ? trpo : ppo;
 }
 
-torch::Tensor OnPolicyMarl::widths() const {
-  std::vector<int64_t> w;
-  for (int64_t i = 0; i < views_.count(); ++i) {
-    w.push_back(views_.obs_dim(i));
-    w.push_back(views_.act_dim(i));
-  }
-  return torch::tensor(w, torch::kLong).reshape({-1, 2});
-}
-
-void OnPolicyMarl::check_widths(torch::serialize::InputArchive& root,
-                                const std::string& path) const {
-  torch::Tensor saved;
-  root.read("agent_widths", saved);
-  saved = saved.to(torch::kCPU);
-  const auto mine = widths();
-  if (saved.sizes() == mine.sizes() && torch::equal(saved, mine)) return;
-  throw Error("checkpoint " + path + ": holds " + std::to_string(saved.size(0)) +
-              " agents of observation/action widths " + widths_text(saved, nullptr) +
-              "; this run's " + views_.split().kind + " split has " +
-              std::to_string(views_.count()) + ": " + widths_text(mine, &views_.split()) +
-              " (another agents split?)");
-}
-
 void OnPolicyMarl::save(torch::serialize::OutputArchive& root) {
-  root.write("agent_widths", widths());
+  write_split(root, views_.split());
   rl::write_part(root, "actors", *actor_list_);
   rl::write_part(root, "critics", *critic_list_);
   rl::write_part(root, "value_norms", *value_norm_list_);
@@ -391,7 +354,7 @@ void OnPolicyMarl::save(torch::serialize::OutputArchive& root) {
 
 void OnPolicyMarl::load(torch::serialize::InputArchive& root, const std::string& path) {
   rl::read_checked(path, "does not fit this run's networks", [&] {
-    check_widths(root, path);
+    check_split(root, views_.split(), path);
     rl::read_module(root, "actors", *actor_list_, path, "this run's actors");
     rl::read_module(root, "critics", *critic_list_, path, "this run's critics");
     rl::read_module(root, "value_norms", *value_norm_list_, path, "this run's critics");
@@ -405,7 +368,7 @@ void OnPolicyMarl::load(torch::serialize::InputArchive& root, const std::string&
 
 void OnPolicyMarl::load_actor(torch::serialize::InputArchive& root, const std::string& path) {
   rl::read_checked(path, "holds no actors of this run", [&] {
-    check_widths(root, path);
+    check_split(root, views_.split(), path);
     rl::read_module(root, "actors", *actor_list_, path, "this run's actors");
     rl::read_module(root, "obs_norm", *obs_norm_, path, "this run's observation normaliser");
   });

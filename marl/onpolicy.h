@@ -88,9 +88,6 @@ class OnPolicyMarl final : public rl::Algorithm {
   torch::Tensor critic_values(const torch::Tensor& nobs, const std::vector<torch::Tensor>& view);
   std::vector<torch::Tensor> agent_views(const torch::Tensor& nobs) const;
   GaussianActor& actor_of(int64_t agent) { return actors_[shared_ ? 0 : agent]; }
-  // what a checkpoint must hold for this split: each agent's observation and action widths
-  torch::Tensor widths() const;
-  void check_widths(torch::serialize::InputArchive& root, const std::string& path) const;
 
   OnPolicyMode mode_;
   OnPolicyConfig c_;
