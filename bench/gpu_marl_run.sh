@@ -3,17 +3,26 @@
 # original), each for SECONDS more (a later call resumes them):
 #   MAPPO and HAPPO with per-hand agents on hand_over, catch_over2underarm and pen, and HAPPO with
 #   per-finger agents on hand_over.
-#   bench/gpu_marl_run.sh OUTDIR SECONDS
+#   bench/gpu_marl_run.sh OUTDIR SECONDS [RUNS]
+# RUNS (optional) keeps only the runs whose "task-algo-agents" contains one of its comma-separated
+# words, e.g. hand_over-mappo-hand,hand_over-happo-hand.
 # Then bench/marl_table.py OUTDIR writes the table and the curves beside the original's and HARL's
 # figures. Needs a build (bench/gpu_learn_run.sh build PARTS).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-out=${1:?OUTDIR}; budget=${2:?SECONDS}
-runs=(
+out=${1:?OUTDIR}; budget=${2:?SECONDS}; only=${3:-}
+all=(
   "hand_over mappo hand" "hand_over happo hand" "hand_over happo finger"
   "catch_over2underarm mappo hand" "catch_over2underarm happo hand"
   "pen mappo hand" "pen happo hand"
 )
+runs=()
+for r in "${all[@]}"; do
+  read -r task algo agents <<<"$r"
+  keep=${only:+no}
+  for w in ${only//,/ }; do [[ $task-$algo-$agents == *"$w"* ]] && keep=; done
+  [[ -z $keep ]] && runs+=("$r")
+done
 mkdir -p "$out"
 for r in "${runs[@]}"; do
   read -r task algo agents <<<"$r"
