@@ -15,19 +15,22 @@ all=(
   "hand_over mappo hand" "hand_over happo hand" "hand_over happo finger"
   "catch_over2underarm mappo hand" "catch_over2underarm happo hand"
   "pen mappo hand" "pen happo hand"
+  "hand_over ppo -"   # the single-agent baseline beside them (only when RUNS asks for it)
 )
 runs=()
 for r in "${all[@]}"; do
   read -r task algo agents <<<"$r"
   keep=${only:+no}
   for w in ${only//,/ }; do [[ $task-$algo-$agents == *"$w"* ]] && keep=; done
-  [[ -z $keep ]] && runs+=("$r")
+  [[ -z $keep && ( -n $only || $algo != ppo ) ]] && runs+=("$r")
 done
 mkdir -p "$out"
 for r in "${runs[@]}"; do
   read -r task algo agents <<<"$r"
+  agent_args=(--agents "$agents")
+  [[ $agents == - ]] && agent_args=()
   bench/gpu_learn_run.sh train "$out" "$task" 2048 "$budget" 1e9 --algo "$algo" \
-    --agents "$agents" >"$out/$task-$algo-$agents.call.log" 2>&1 &
+    "${agent_args[@]}" >"$out/$task-$algo-$agents.call.log" 2>&1 &
 done
 wait
 for r in "${runs[@]}"; do
