@@ -50,7 +50,7 @@ json task_spec_json(const tasks::TaskSpec& sp, const marl::AgentSplit& split) {
   json agents = json::array();
   for (auto& a : split.agents)
     agents.push_back({{"name", a.name}, {"obs", a.obs_names}, {"act", a.act_names},
-                      {"obs_dim", a.obs_cols.size()}, {"act_columns", a.act_cols}});
+                      {"obs_columns", a.obs_cols}, {"act_columns", a.act_cols}});
   json terms = json::array();
   for (auto& t : sp.reward_terms) terms.push_back({{"name", t.name}, {"doc", t.doc}});
   return {{"id", sp.id},

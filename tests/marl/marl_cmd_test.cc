@@ -42,7 +42,7 @@ TEST_CASE("bidex info --agents prints each agent's columns", "[marl][cmd]") {
   REQUIRE(j["agents"].size() == 12);
   CHECK(j["agents"][1]["name"] == "right_ff");
   CHECK(j["agents"][1]["act_columns"] == nlohmann::json({2, 3, 4}));
-  CHECK(j["agents"][1]["obs_dim"] == 211);
+  CHECK(j["agents"][1]["obs_columns"].size() == 211);
   r = bidex_run("info --task catch_underarm");
   CHECK(r.out.find("right  sees 223 (right, tail), acts on 26: [0, 26)") != std::string::npos);
   r = bidex_run("info --task hand_over --agents fingers");

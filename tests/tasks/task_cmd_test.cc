@@ -60,7 +60,7 @@ TEST_CASE("bidex info --task prints the layout as text", "[tasks][apps]") {
   CHECK(contains(r.out, "action (40)"));
   CHECK(contains(r.out, "object.pose"));
   CHECK(contains(r.out, "[374, 381)"));
-  CHECK(contains(r.out, "observes 211 values, acts on 20"));
+  CHECK(contains(r.out, "right  sees 211 (right, tail), acts on 20: [0, 20) (right.joints)"));
 }
 
 TEST_CASE("bidex play --task hand_over --policy zero prints every reward term",
