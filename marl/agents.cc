@@ -155,6 +155,15 @@ Agent make_agent(const tasks::TaskSpec& spec,
   return a;
 }
 
+// A split of `kind` with no agents yet, of the task's widths.
+AgentSplit empty_split(const tasks::TaskSpec& spec, const char* kind) {
+  AgentSplit split;
+  split.kind = kind;
+  split.obs_dim = spec.obs.dim();
+  split.act_dim = spec.act.dim();
+  return split;
+}
+
 // Every action column in exactly one agent; `where` names the YAML in errors.
 void check_cover(const tasks::TaskSpec& spec, const AgentSplit& split, const YamlView* where) {
   std::vector<int> owner(spec.act.dim(), -1);
@@ -197,10 +206,7 @@ std::vector<std::string> strings(const YamlView& list) {
 }  // namespace
 
 AgentSplit hand_split(const tasks::TaskSpec& spec) {
-  AgentSplit split;
-  split.kind = "hand";
-  split.obs_dim = spec.obs.dim();
-  split.act_dim = spec.act.dim();
+  AgentSplit split = empty_split(spec, "hand");
   const auto parts = action_parts(spec);
   for (auto& a : spec.agents)
     split.agents.push_back(make_agent(spec, parts, a.name, a.act, {}, nullptr, nullptr));
@@ -209,10 +215,7 @@ AgentSplit hand_split(const tasks::TaskSpec& spec) {
 }
 
 AgentSplit finger_split(const tasks::TaskSpec& spec) {
-  AgentSplit split;
-  split.kind = "finger";
-  split.obs_dim = spec.obs.dim();
-  split.act_dim = spec.act.dim();
+  AgentSplit split = empty_split(spec, "finger");
   const auto parts = action_parts(spec);
   for (const char* side : kSides)
     for (auto& hp : tasks::hand_parts())
@@ -232,10 +235,7 @@ AgentSplit split_agents(const tasks::TaskSpec& spec, const YamlView& agents) {
   }
   if (!agents.is_seq() || agents.node().size() == 0)
     agents.fail("hand, finger, or a non-empty list of agents", agents.repr());
-  AgentSplit split;
-  split.kind = "custom";
-  split.obs_dim = spec.obs.dim();
-  split.act_dim = spec.act.dim();
+  AgentSplit split = empty_split(spec, "custom");
   const auto parts = action_parts(spec);
   const auto items = agents.items();
   if (items.front().is_seq()) {

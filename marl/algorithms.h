@@ -16,7 +16,7 @@ namespace bidex::marl {
 void register_algorithms();
 
 // The factories (the config's section: rl::TrainConfig::section_yaml; the agents: run_agents in
-// marl/config.h). A split whose widths differ from obs_dim / act_dim is an Error.
+// marl/config.h, which refuses a split whose widths differ from obs_dim / act_dim).
 std::unique_ptr<rl::Algorithm> make_ippo(const rl::TrainConfig& config, int64_t obs_dim,
                                          int64_t act_dim, int64_t nslot,
                                          const torch::Device& device);

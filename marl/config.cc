@@ -114,9 +114,15 @@ YamlView section_of(const rl::TrainConfig& config) {
   return YamlView::load_string(config.section_yaml, config.algo + " section");
 }
 
-AgentSplit run_agents(const rl::TrainConfig& config) {
+AgentSplit run_agents(const rl::TrainConfig& config, int64_t obs_dim, int64_t act_dim) {
   const tasks::TaskSpec& spec = tasks::find_task(config.task).spec();
-  return split_agents(spec, section_of(config).child("agents"));
+  AgentSplit split = split_agents(spec, section_of(config).child("agents"));
+  if (split.obs_dim != obs_dim || split.act_dim != act_dim)
+    throw Error(config.algo + ": the agents' split of task " + config.task +
+                " covers observations of width " + std::to_string(split.obs_dim) +
+                " and actions of width " + std::to_string(split.act_dim) + ", but the run's are " +
+                std::to_string(obs_dim) + " and " + std::to_string(act_dim));
+  return split;
 }
 
 }  // namespace bidex::marl

@@ -85,8 +85,9 @@ MaddpgConfig read_maddpg(const YamlView& section);
 
 // The config's section (rl::TrainConfig::section_yaml) as a view naming it in errors.
 YamlView section_of(const rl::TrainConfig& config);
-// The agents of a run: its section's `agents` resolved against its task's layout.
+// The agents of a run: its section's `agents` resolved against its task's layout; an Error
+// naming both when the split's widths are not the run's rows' (obs_dim, act_dim).
 struct AgentSplit;
-AgentSplit run_agents(const rl::TrainConfig& config);
+AgentSplit run_agents(const rl::TrainConfig& config, int64_t obs_dim, int64_t act_dim);
 
 }  // namespace bidex::marl

@@ -74,12 +74,16 @@ torch::Tensor Maddpg::q(const torch::Tensor& obs, const torch::Tensor& actions) 
   return critic_->forward(torch::cat({obs, actions}, -1));
 }
 
-torch::Tensor Maddpg::critic_target(const rl::ReplayBuffer::Batch& b) {
-  torch::NoGradGuard ng;
+torch::Tensor Maddpg::joint(std::vector<TanhActor>& actors, const torch::Tensor& obs) const {
   std::vector<torch::Tensor> parts;
   for (int64_t i = 0; i < views_.count(); ++i)
-    parts.push_back(actor_targets_[i]->forward(views_.obs(b.next_obs, i)));
-  const auto a_next = views_.assemble(parts);
+    parts.push_back(actors[i]->forward(views_.obs(obs, i)));
+  return views_.assemble(parts);
+}
+
+torch::Tensor Maddpg::critic_target(const rl::ReplayBuffer::Batch& b) {
+  torch::NoGradGuard ng;
+  const auto a_next = joint(actor_targets_, b.next_obs);
   const auto q_next = critic_target_->forward(torch::cat({b.next_obs, a_next}, -1));
   return maddpg_q_target(b.rewards, b.terminal, q_next, c_.gamma);
 }
@@ -143,10 +147,7 @@ const std::vector<std::string>& Maddpg::metric_names() const {
 
 torch::Tensor Maddpg::actor(const torch::Tensor& obs) {
   torch::NoGradGuard ng;
-  std::vector<torch::Tensor> parts;
-  for (int64_t i = 0; i < views_.count(); ++i)
-    parts.push_back(actors_[i]->forward(views_.obs(obs, i)));
-  return views_.assemble(parts);
+  return joint(actors_, obs);
 }
 
 torch::Tensor Maddpg::sample_actor(const torch::Tensor& obs) {
@@ -196,12 +197,7 @@ std::unique_ptr<rl::Algorithm> make_maddpg(const rl::TrainConfig& config, int64_
                                            const torch::Device& device) {
   const YamlView section = section_of(config);
   const MaddpgConfig c = read_maddpg(section);
-  const AgentSplit split = run_agents(config);
-  if (split.obs_dim != obs_dim || split.act_dim != act_dim)
-    throw Error("maddpg: the agents of task " + config.task + " cover observations of " +
-                std::to_string(split.obs_dim) + " and actions of " +
-                std::to_string(split.act_dim) + ", but the run's rows have " +
-                std::to_string(obs_dim) + " and " + std::to_string(act_dim));
+  const AgentSplit split = run_agents(config, obs_dim, act_dim);
   const std::string key = config.algo + ".";
   if (nslot > 0 && c.replay_size < nslot)
     throw ConfigError(section.file(), key + "replay_size",

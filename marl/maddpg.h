@@ -75,6 +75,8 @@ class Maddpg final : public rl::Algorithm {
   AgentViews views_;
   torch::Device device_;
   // the actors live in lists too (saved as one part each; their targets' Polyak step in one go)
+  // every agent's action of `actors` on its view of `obs`, assembled
+  torch::Tensor joint(std::vector<TanhActor>& actors, const torch::Tensor& obs) const;
   std::vector<TanhActor> actors_, actor_targets_;
   torch::nn::ModuleList actor_list_, target_list_;
   ValueNet critic_{nullptr}, critic_target_{nullptr};

@@ -38,7 +38,9 @@ GaussianActorImpl::GaussianActorImpl(int64_t obs_dim, int64_t act_dim, const OnP
   log_std_ = register_parameter("log_std", torch::full({act_dim}, c.log_std_init));
 }
 
-torch::Tensor GaussianActorImpl::mean(const torch::Tensor& obs) { return out_(body_->forward(obs)); }
+torch::Tensor GaussianActorImpl::mean(const torch::Tensor& obs) {
+  return out_(body_->forward(obs));
+}
 
 torch::Tensor GaussianActorImpl::std() const { return torch::sigmoid(log_std_ / x_) * y_; }
 

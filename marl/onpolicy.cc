@@ -401,12 +401,7 @@ std::unique_ptr<rl::Algorithm> make(OnPolicyMode mode, const rl::TrainConfig& co
                                     int64_t obs_dim, int64_t act_dim, int64_t nslot,
                                     const torch::Device& device) {
   const OnPolicyConfig c = read_onpolicy(section_of(config), config.algo);
-  const AgentSplit split = run_agents(config);
-  if (split.obs_dim != obs_dim || split.act_dim != act_dim)
-    throw Error(config.algo + ": the agents' split of task " + config.task +
-                " covers observations of width " + std::to_string(split.obs_dim) +
-                " and actions of width " + std::to_string(split.act_dim) + ", but the run's are " +
-                std::to_string(obs_dim) + " and " + std::to_string(act_dim));
+  const AgentSplit split = run_agents(config, obs_dim, act_dim);
   return std::make_unique<OnPolicyMarl>(mode, c, split, nslot, device, config.algo);
 }
 
