@@ -160,9 +160,9 @@ void add_bench_command(CLI::App& app) {
       ->capture_default_str();
   warp->add_option("--rounds", wc->rounds, "Alternations of raw and bidex (best of each kept)")
       ->check(CLI::PositiveNumber)->capture_default_str();
-  warp->add_option("--njmax", wc->njmax, "Constraint rows per world (0: the scene's gpu_njmax)")
+  warp->add_option("--njmax", wc->njmax, "Constraint rows per world (0: the scene's gpu.njmax)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
-  warp->add_option("--nconmax", wc->nconmax, "Contacts per world (0: the scene's gpu_nconmax)")
+  warp->add_option("--nconmax", wc->nconmax, "Contacts per world (0: the scene's gpu.nconmax)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--physics", wc->physics_file,
                    "Physics YAML (default: configs/sim/physics.yaml)");

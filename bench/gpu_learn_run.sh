@@ -3,6 +3,11 @@
 # access. One stage per call, so that a device session can be spent in slices:
 #   bench/gpu_learn_run.sh build PARTS
 #       join the bundle's parts (scripts/offline-build.sh bundle-gpu + split) and build bidex
+#   bench/gpu_learn_run.sh physics OUTDIR TASKS WORLDS CANDIDATE...
+#       the GPU's physics candidates side by side (bidex bench warp): each CANDIDATE is
+#       SUBSTEPS:NJMAX:JACOBIAN (e.g. 4:128:dense), the gpu block of configs/sim/physics.yaml with
+#       that step (1/60 s / SUBSTEPS), room and Jacobian; rates, overflows and rows needed
+#       (BIDEX_GPU_PHYSICS=SUBSTEPS:NJMAX:JACOBIAN sets that gpu block for any stage)
 #   bench/gpu_learn_run.sh pack OUTDIR [SUITE] [SLOTS]
 #       the suite's train split packed on the GPU against each task alone (bidex bench pack)
 #   bench/gpu_learn_run.sh profile OUTDIR TASKS SLOTS_LIST [UPDATES]
@@ -50,6 +55,26 @@ json.dump(d, open(path, "w"), indent=2)
 PY
 }
 
+# gpu_block SUBSTEPS:NJMAX:JACOBIAN IN OUT: the physics YAML IN with its gpu block replaced
+gpu_block() {
+  python3 - "$@" <<'PY'
+import sys
+spec, src, dst = sys.argv[1:4]
+sub, njmax, jac = spec.split(":")
+text = open(src).read()
+text = text[:text.index("\ngpu:")] + "\ngpu:\n"
+text += f"  timestep: {1 / 60 / int(sub)!r}\n  substeps: {sub}\n  njmax: {njmax}\n"
+text += f"  nconmax: 64\n  jacobian: {jac}\n"
+open(dst, "w").write(text)
+PY
+}
+
+# BIDEX_GPU_PHYSICS=SUBSTEPS:NJMAX:JACOBIAN: every stage runs with that gpu block
+if [[ -n ${BIDEX_GPU_PHYSICS:-} ]]; then
+  gpu_block "$BIDEX_GPU_PHYSICS" configs/sim/physics.yaml configs/sim/physics.yaml
+  echo "gpu physics: $BIDEX_GPU_PHYSICS"
+fi
+
 case "$stage" in
 build)
   parts=${1:?PARTS}
@@ -58,6 +83,30 @@ build)
   BIDEX_BUILD_TARGETS=bidex scripts/offline-build.sh build "$deps" "$build" >/tmp/build.log 2>&1 \
     || { tail -40 /tmp/build.log; exit 1; }
   echo "build: ${SECONDS}s"
+  ;;
+physics)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; worlds=${3:?WORLDS}
+  shift 3
+  mkdir -p "$out"
+  for cand in "$@"; do
+    IFS=: read -r sub njmax jac <<<"$cand"
+    file="$out/physics-$sub-$njmax-$jac.yaml"
+    gpu_block "$cand" configs/sim/physics.yaml "$file"
+    json="$out/physics-$sub-$njmax-$jac.json"
+    cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2 --determinism-steps 0 --physics physics-$sub-$njmax-$jac.yaml"
+    "$bidex" bench warp --task "$tasks" --worlds "$worlds" --seconds 1 --rounds 2 \
+      --determinism-steps 0 --physics "$file" --out "$json" >"${json%.json}.log" 2>&1 \
+      || { tail "${json%.json}.log"; continue; }
+    stamp "$json" "$cmd"
+    python3 - "$json" "$cand" <<'PY'
+import json, sys
+for r in json.load(open(sys.argv[1]))["results"]:
+  print(f"{sys.argv[2]:>14} {r['task']:<20} {r['worlds']:>6} raw {r['raw_slot_steps_per_s']:>9.0f} "
+        f"task {r.get('task_slot_steps_per_s', 0):>9.0f} overflows {r['overflows']} "
+        f"faults {r['faults']} rows {r['max_rows']}/{r['njmax']}")
+PY
+  done
+  echo "physics: ${SECONDS}s"
   ;;
 pack)
   out=$(realpath -m "${1:?OUTDIR}"); suite=${2:-MT20}; slots=${3:-16384}

@@ -166,6 +166,7 @@ json physics_json(const sim::PhysicsOptions& p) {
           {"iterations", p.iterations},
           {"tolerance", p.tolerance},
           {"cone", p.cone},
+          {"jacobian", p.jacobian},
           {"contact_solref", p.contact_solref},
           {"contact_solimp", p.contact_solimp},
           {"coupling_solref", p.coupling_solref},

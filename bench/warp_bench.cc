@@ -114,14 +114,13 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                "measurements");
   int64_t done = 0;
   for (const auto& id : cfg.tasks) {
-    tasks::EnvOptions eo;
-    eo.nslot = 1;
-    eo.physics_file = cfg.physics_file;
-    tasks::TaskEnv env(tasks::make_task(id, ""), eo);  // the task's scene, compiled once
-    const sim::SimModel& model = env.model();
+    // the task's scene with the GPU's physics, compiled once
+    auto task = tasks::make_task(id, "");
+    auto model_ptr = tasks::build_task_model(*task, "", cfg.physics_file, /*on_gpu=*/true);
+    const sim::SimModel& model = *model_ptr;
     if (cfg.determinism_steps > 0) {
       json d = determinism(model, cfg, std::min(cfg.worlds.front(), 2048), cfg.determinism_steps);
-      d["task"] = env.spec().versioned_id();
+      d["task"] = task->spec().versioned_id();
       determinism_rows.push_back(d);
     }
     for (int n : cfg.worlds) {
@@ -156,7 +155,7 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
       }
       const int substeps = model.physics().substeps;
       const double raw_slot = best_raw.per_s() * n, bidex_slot = best_bidex.per_s() * n;
-      json row = {{"task", env.spec().versioned_id()},
+      json row = {{"task", task->spec().versioned_id()},
                   {"worlds", n},
                   {"device", cfg.device},
                   {"on_gpu", w.on_gpu()},
@@ -173,10 +172,11 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                   {"checked_slot_steps", checked},
                   {"faults", w.total_faults() - faults0},
                   {"overflows", w.total_overflows() - overflows0},
+                  {"max_rows", w.max_rows()},
                   {"room_advice", w.room_advice()},
                   {"device_bytes", w.device_bytes()},
                   {"device_bytes_per_world", static_cast<double>(w.device_bytes()) / n}};
-      if (cfg.stages && tasks::runs_on_warp(env.task())) {
+      if (cfg.stages && tasks::runs_on_warp(*task)) {
         w.synchronize();
         row.update(task_step(id, n, cfg));
         std::fprintf(stderr, "%s, %d worlds: whole task step %.0f slot-steps/s (ratio %.3f)\n",

@@ -1,5 +1,6 @@
 #include "sim/physics.h"
 
+#include <cmath>
 #include <sstream>
 
 #include "core/yaml.h"
@@ -39,29 +40,27 @@ PhysicsOptions load_physics(const std::string& path) {
 PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   n.allow_keys({"timestep", "substeps", "integrator", "solver", "iterations", "tolerance", "cone",
                 "contact_solref", "contact_solimp", "coupling_solref", "coupling_solimp",
-                "gravity_free_hands", "memory", "gpu_njmax", "gpu_nconmax", "max_speed"});
-  auto pos_double = [&](const char* key, double& out) {
-    if (auto v = n.maybe(key)) {
+                "jacobian", "gravity_free_hands", "memory", "max_speed", "gpu"});
+  auto pos_double = [](const YamlView& node, const char* key, double& out) {
+    if (auto v = node.maybe(key)) {
       double x = v->as<double>();
       if (!(x > 0)) v->fail("a number > 0", v->repr());
       out = x;
     }
   };
-  auto pos_int = [&](const char* key, int& out) {
-    if (auto v = n.maybe(key)) {
+  auto pos_int = [](const YamlView& node, const char* key, int& out) {
+    if (auto v = node.maybe(key)) {
       int x = v->as<int>();
       if (x <= 0) v->fail("an integer > 0", v->repr());
       out = x;
     }
   };
-  pos_double("timestep", o.timestep);
-  pos_int("substeps", o.substeps);
-  pos_int("iterations", o.iterations);
-  pos_double("tolerance", o.tolerance);
-  pos_int("memory", o.memory);
-  pos_int("gpu_njmax", o.gpu_njmax);
-  pos_int("gpu_nconmax", o.gpu_nconmax);
-  pos_double("max_speed", o.max_speed);
+  pos_double(n, "timestep", o.timestep);
+  pos_int(n, "substeps", o.substeps);
+  pos_int(n, "iterations", o.iterations);
+  pos_double(n, "tolerance", o.tolerance);
+  pos_int(n, "memory", o.memory);
+  pos_double(n, "max_speed", o.max_speed);
   if (auto v = n.maybe("integrator")) {
     o.integrator = v->as<std::string>();
     one_of(*v, o.integrator, {"Euler", "RK4"});
@@ -74,11 +73,43 @@ PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
     o.cone = v->as<std::string>();
     one_of(*v, o.cone, {"pyramidal", "elliptic"});
   }
+  if (auto v = n.maybe("jacobian")) {
+    o.jacobian = v->as<std::string>();
+    one_of(*v, o.jacobian, {"auto", "dense", "sparse"});
+  }
   if (auto v = n.maybe("contact_solref")) o.contact_solref = read_array<2>(*v);
   if (auto v = n.maybe("contact_solimp")) o.contact_solimp = read_array<5>(*v);
   if (auto v = n.maybe("coupling_solref")) o.coupling_solref = read_array<2>(*v);
   if (auto v = n.maybe("coupling_solimp")) o.coupling_solimp = read_array<5>(*v);
   o.gravity_free_hands = n.opt<bool>("gravity_free_hands", o.gravity_free_hands);
+  if (auto g = n.maybe("gpu")) {
+    g->allow_keys({"timestep", "substeps", "njmax", "nconmax", "jacobian"});
+    pos_double(*g, "timestep", o.gpu.timestep);
+    pos_int(*g, "substeps", o.gpu.substeps);
+    pos_int(*g, "njmax", o.gpu.njmax);
+    pos_int(*g, "nconmax", o.gpu.nconmax);
+    if (auto v = g->maybe("jacobian")) {
+      o.gpu.jacobian = v->as<std::string>();
+      one_of(*v, o.gpu.jacobian, {"auto", "dense", "sparse"});
+    }
+    // the GPU may take other physics steps, never another control step (tasks count in it)
+    const PhysicsOptions on = o.on_gpu();
+    if (std::abs(on.control_dt() - o.control_dt()) > 1e-9 * o.control_dt()) {
+      std::ostringstream want, got;
+      want << "timestep x substeps = " << o.control_dt() << " s, the CPU's control step";
+      got << on.timestep << " x " << on.substeps << " = " << on.control_dt() << " s";
+      auto at = g->maybe("substeps");
+      (at ? *at : *g).fail(want.str(), got.str());
+    }
+  }
+  return o;
+}
+
+PhysicsOptions PhysicsOptions::on_gpu() const {
+  PhysicsOptions o = *this;
+  if (gpu.timestep > 0) o.timestep = gpu.timestep;
+  if (gpu.substeps > 0) o.substeps = gpu.substeps;
+  if (!gpu.jacobian.empty()) o.jacobian = gpu.jacobian;
   return o;
 }
 

@@ -19,6 +19,7 @@ struct PhysicsOptions {
   int iterations = 20;               // main solver iterations (a cap)
   double tolerance = 1e-8;           // solver early-exit tolerance
   std::string cone = "pyramidal";    // friction cone: pyramidal or elliptic
+  std::string jacobian = "auto";     // constraint Jacobian: auto (dense below 60 dofs), dense, sparse
   // contacts, the hands' self-contact pairs included: time constant (s; MuJoCo raises it to at
   // least 2 timesteps), damping ratio; impedance
   std::array<double, 2> contact_solref{2.0 / 480.0, 1.0};
@@ -29,13 +30,22 @@ struct PhysicsOptions {
   // bytes of one world's arena (MuJoCo 3's <size memory>): contacts, constraint rows and the
   // solver's scratch; a world that fills it is a fault and a reset
   int memory = 512 << 10;
-  // the GPU backend's room per world (MuJoCo Warp allocates fixed rows): constraint rows and
-  // contacts; a world that needs more is a fault and a reset (sim/README.md)
-  int gpu_njmax = 192;
-  int gpu_nconmax = 64;
   double max_speed = 1000.0;  // a |qvel| above this (m/s or rad/s) is an exploded slot
 
+  // What the GPU backend (MuJoCo Warp, float32) does differently (sim/README.md, "Physics on
+  // the GPU"): its own step, and its room per world, which MuJoCo Warp allocates up front
+  struct Gpu {
+    double timestep = 0;  // s per physics step (0: the CPU's timestep)
+    int substeps = 0;     // (0: the CPU's substeps); the control step must stay the CPU's
+    int njmax = 192;      // constraint rows per world; a world that needs more is reset
+    int nconmax = 64;     // contacts per world (a pool shared by all worlds)
+    std::string jacobian;  // (empty: the CPU's)
+  } gpu;
+
   double control_dt() const { return timestep * substeps; }
+  // These options as the GPU backend steps them: timestep, substeps and jacobian replaced by
+  // gpu's.
+  PhysicsOptions on_gpu() const;
 };
 
 // Reads a physics YAML (unknown keys and bad values are ConfigErrors); keys not in the file

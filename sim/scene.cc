@@ -136,7 +136,8 @@ std::string SceneBuilder::mjcf() const {
   x << "  <compiler angle=\"radian\" inertiafromgeom=\"true\"/>\n";
   x << "  <option timestep=\"" << num(p.timestep) << "\" integrator=\"" << p.integrator
     << "\" solver=\"" << p.solver << "\" iterations=\"" << p.iterations << "\" tolerance=\""
-    << num(p.tolerance) << "\" cone=\"" << p.cone << "\"/>\n";
+    << num(p.tolerance) << "\" cone=\"" << p.cone << "\" jacobian=\"" << p.jacobian
+    << "\"/>\n";
   x << "  <size memory=\"" << p.memory << "\"/>\n";
   x << "  <visual><global offwidth=\"1280\" offheight=\"960\"/></visual>\n";
   // explicit <pair>s (the hands' self-contacts) do not take geom defaults: give them the same

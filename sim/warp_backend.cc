@@ -1,5 +1,6 @@
 #include "sim/warp_backend.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -152,8 +153,8 @@ struct WarpBackend::Impl {
 WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
     : model_(&model), nworld_(nworld), options_(std::move(options)), impl_(new Impl) {
   if (nworld < 1) throw Error("GPU backend: nworld must be >= 1, got " + std::to_string(nworld));
-  if (options_.njmax <= 0) options_.njmax = model.physics().gpu_njmax;
-  if (options_.nconmax <= 0) options_.nconmax = model.physics().gpu_nconmax;
+  if (options_.njmax <= 0) options_.njmax = model.physics().gpu.njmax;
+  if (options_.nconmax <= 0) options_.nconmax = model.physics().gpu.nconmax;
   if (options_.device.rfind("cuda", 0) == 0) require_gpu();
   ensure_python();
   py::gil_scoped_acquire gil;
@@ -305,12 +306,19 @@ int64_t WarpBackend::total_overflows() const {
   return n;
 }
 
+int WarpBackend::max_rows() const {
+  int m = 0;
+  for (int32_t r : download_as<int32_t>("rows_max")) m = std::max(m, static_cast<int>(r));
+  return m;
+}
+
 std::string WarpBackend::room_advice() const {
   const int64_t n = total_overflows();
   if (n == 0) return "";
   return std::to_string(n) + " steps of worlds overflowed their room on the GPU (" +
          std::to_string(options_.njmax) + " constraint rows, " + std::to_string(options_.nconmax) +
-         " contacts per world; each was reset): raise gpu_njmax or gpu_nconmax in the physics "
+         " contacts per world; up to " + std::to_string(max_rows()) +
+         " rows were needed; each was reset): raise gpu.njmax or gpu.nconmax in the physics "
          "YAML (configs/sim/physics.yaml, or the task's scene)";
 }
 

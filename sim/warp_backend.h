@@ -22,8 +22,8 @@ namespace bidex::sim {
 
 struct WarpOptions {
   std::string device = "cuda";  // a Warp device: "cuda", "cuda:1", or "cpu" (tests)
-  // room per world: constraint rows and contacts (0: the scene's PhysicsOptions gpu_njmax and
-  // gpu_nconmax); a world that needs more is flagged (kFaultOverflow), reset and counted
+  // room per world: constraint rows and contacts (0: the scene's PhysicsOptions gpu.njmax and
+  // gpu.nconmax); a world that needs more is flagged (kFaultOverflow), reset and counted
   int njmax = 0;
   int nconmax = 0;
 };
@@ -59,7 +59,8 @@ class WarpBackend {
   // Named world-major arrays: qpos, qvel, ctrl, qfrc_actuator, qfrc_constraint, sensordata, xpos,
   // xquat, cvel, subtree_com, mocap_pos, mocap_quat, xfrc_applied, time (float32); base_wrench
   // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_count and
-  // overflow_count (int64 per world), reset (int32: 1 marks a world for the next reset).
+  // overflow_count (int64 per world), rows_max (int32: the most constraint rows the world has
+  // needed at the end of a step), reset (int32: 1 marks a world for the next reset).
   WorldArray array(const std::string& name) const;
 
   // One control step of every world, then the fault check, which marks faulty worlds in `reset`.
@@ -98,8 +99,11 @@ class WarpBackend {
   // Faults and overflows over all worlds since construction (copies two arrays to the host).
   int64_t total_faults() const;
   int64_t total_overflows() const;
+  // The most constraint rows any world has needed since construction (copies one array): the
+  // use of the room `options().njmax`.
+  int max_rows() const;
   // Empty when no world overflowed its room; else a line saying how many overflows there were
-  // and which physics settings to raise (gpu_njmax, gpu_nconmax).
+  // and which physics settings to raise (gpu.njmax, gpu.nconmax).
   std::string room_advice() const;
   // Bytes Warp holds on the device (0 on the CPU device).
   size_t device_bytes() const;

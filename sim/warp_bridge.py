@@ -51,13 +51,17 @@ def _check(
   qvel: wp.array2d(dtype=float),
   max_speed: float,
   overflow: wp.array(dtype=int),
+  nefc: wp.array(dtype=int),
   fault: wp.array(dtype=wp.uint32),
   fault_count: wp.array(dtype=wp.int64),
   overflow_count: wp.array(dtype=wp.int64),
+  rows_max: wp.array(dtype=wp.int32),
   reset: wp.array(dtype=wp.int32),
 ):
   w = wp.tid()
   bits = wp.uint32(0)
+  # the most constraint rows this world has needed (its room's use; an overflow counts above)
+  rows_max[w] = wp.max(rows_max[w], wp.int32(nefc[w]))
   # inputs: MuJoCo Warp clamps a NaN target into the control range, so check them here
   for i in range(ctrl.shape[1]):
     if not wp.isfinite(ctrl[w, i]):
@@ -173,6 +177,7 @@ class Bridge:
       self.fault = wp.zeros(nworld, dtype=wp.uint32)
       self.fault_count = wp.zeros(nworld, dtype=wp.int64)
       self.overflow_count = wp.zeros(nworld, dtype=wp.int64)
+      self.rows_max = wp.zeros(nworld, dtype=wp.int32)
       self.reset_mask = wp.zeros(nworld, dtype=wp.int32)
       qposadr = np.full(mjm.nu, -1, dtype=np.int32)
       for a in range(mjm.nu):
@@ -206,7 +211,8 @@ class Bridge:
       mjw.step(m, d)
     wp.launch(_check, dim=self.nworld,
               inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
-                      self.fault, self.fault_count, self.overflow_count, self.reset_mask])
+                      d.nefc, self.fault, self.fault_count, self.overflow_count, self.rows_max,
+                      self.reset_mask])
 
   def raw_step(self):
     """The same substeps without bidex's passes (benchmarks compare the two)."""
@@ -289,7 +295,7 @@ class Bridge:
       "xquat": d.xquat, "cvel": d.cvel, "subtree_com": d.subtree_com, "mocap_pos": d.mocap_pos,
       "mocap_quat": d.mocap_quat, "xfrc_applied": d.xfrc_applied, "time": d.time,
       "base_wrench": self.base_wrench, "fault": self.fault, "fault_count": self.fault_count,
-      "overflow_count": self.overflow_count, "reset": self.reset_mask,
+      "overflow_count": self.overflow_count, "rows_max": self.rows_max, "reset": self.reset_mask,
     }
     out = {}
     for k, a in named.items():

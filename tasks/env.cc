@@ -26,11 +26,12 @@ void random_actions(std::vector<float>& actions, std::mt19937_64& rng) {
 }
 
 std::unique_ptr<sim::SimModel> build_task_model(Task& task, const std::string& hand_file,
-                                                const std::string& physics_file) {
+                                                const std::string& physics_file, bool on_gpu) {
   sim::HandSpec hand =
       sim::load_hand_spec(hand_file.empty() ? sim::default_hand_path() : hand_file);
   sim::PhysicsOptions physics =
       sim::load_physics(physics_file.empty() ? sim::default_physics_path() : physics_file);
+  if (on_gpu) physics = physics.on_gpu();
   auto model = std::make_unique<sim::SimModel>(task.scene(hand, physics).build(
       task.spec().versioned_id() + " scene (" + task.config_file() + ")"));
   task.bind(*model);

@@ -46,9 +46,11 @@ struct StageProfile {
 };
 
 // The task's scene (hands from `hand_file`, physics from `physics_file`; empty: the defaults),
-// compiled, and the task bound to it.
+// compiled, and the task bound to it. `on_gpu`: with the GPU backend's physics step
+// (PhysicsOptions::on_gpu).
 std::unique_ptr<sim::SimModel> build_task_model(Task& task, const std::string& hand_file,
-                                                const std::string& physics_file);
+                                                const std::string& physics_file,
+                                                bool on_gpu = false);
 
 // Per-slot goal shifts (TaskParams::goal_shift) into `states` of `nslot` slots: `shifts` holds,
 // for each slot listed in `slots`, spec.goal_shifts x 3 values (m). They apply from each slot's

@@ -351,6 +351,8 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
   // keeps the scene's margin over the use at 3.5x or more
   sim::PhysicsOptions ph = physics;
   if (kind_ == TableKind::kPourWater) ph.memory += (32 << 10) * p_.water_count;
+  // and up to 156 constraint rows with the default 8 balls (bench task, maxuse_efc)
+  if (kind_ == TableKind::kPourWater) ph.gpu.njmax = std::max(ph.gpu.njmax, 192);
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::TableSpec table;

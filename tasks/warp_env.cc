@@ -85,7 +85,7 @@ WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
   if (!runs_on_warp(*task_))
     throw Error(sp.id + ": its stages do not run on the GPU backend yet (families there: " +
                 gpu_families() + "); use --device cpu");
-  model_ = build_task_model(*task_, o.hand_file, o.physics_file);
+  model_ = build_task_model(*task_, o.hand_file, o.physics_file, /*on_gpu=*/true);
   sim::WarpOptions wo;
   wo.device = o.device;
   backend_ = std::make_unique<sim::WarpBackend>(*model_, o.nslot, wo);

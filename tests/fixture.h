@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <fstream>
 #include <random>
 #include <string>
 #include <vector>
@@ -90,6 +91,28 @@ class TempDir {
  private:
   fs::path path_;
 };
+
+// configs/sim/physics.yaml with the GPU backend stepping the CPU's timestep and substeps (its
+// `gpu` block's own step removed), for tests that compare the two paths step by step; written
+// once per test process.
+inline const std::string& same_step_physics_file() {
+  static TempDir dir;
+  static const std::string path = [] {
+    std::ifstream in(sim::default_physics_path());
+    std::string line, text;
+    bool in_gpu = false;
+    while (std::getline(in, line)) {
+      if (!line.empty() && line[0] != ' ' && line[0] != '#') in_gpu = line.rfind("gpu:", 0) == 0;
+      if (in_gpu && (line.rfind("  timestep:", 0) == 0 || line.rfind("  substeps:", 0) == 0))
+        continue;
+      text += line + "\n";
+    }
+    const std::string out = dir.file("physics-same-step.yaml");
+    std::ofstream(out) << text;
+    return out;
+  }();
+  return path;
+}
 
 // Replaces exactly one occurrence of `from` in `text` (fails the test if it is absent or repeated).
 inline std::string replace_once(std::string text, const std::string& from, const std::string& to) {

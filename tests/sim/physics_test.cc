@@ -34,6 +34,7 @@ solver: PGS
 iterations: 7
 tolerance: 1.0e-6
 cone: elliptic
+jacobian: dense
 contact_solref: [0.02, 0.9]
 contact_solimp: [0.9, 0.95, 0.002, 0.4, 3.0]
 coupling_solref: [0.003, 1.1]
@@ -52,6 +53,7 @@ max_speed: 321.5
   CHECK(p.iterations == 7);
   CHECK(p.tolerance == 1.0e-6);
   CHECK(p.cone == "elliptic");
+  CHECK(p.jacobian == "dense");
   CHECK(p.contact_solref == std::array<double, 2>{0.02, 0.9});
   CHECK(p.contact_solimp == std::array<double, 5>{0.9, 0.95, 0.002, 0.4, 3.0});
   CHECK(p.coupling_solref == std::array<double, 2>{0.003, 1.1});
@@ -67,6 +69,53 @@ max_speed: 321.5
   CHECK(partial.iterations == 99);             // from `base`
   CHECK(partial.timestep == base.timestep);   // untouched
   CHECK(partial.solver == base.solver);
+}
+
+TEST_CASE("the GPU block replaces the physics step and room for the GPU backend only",
+          "[sim][physics]") {
+  auto v = YamlView::load_string(R"(timestep: 0.002
+substeps: 8
+gpu:
+  timestep: 0.004
+  substeps: 4
+  njmax: 96
+  nconmax: 32
+  jacobian: dense
+)",
+                                 "gpu.yaml");
+  PhysicsOptions p = parse_physics(v);
+  CHECK(p.timestep == 0.002);  // the CPU's step is untouched
+  CHECK(p.substeps == 8);
+  CHECK(p.gpu.njmax == 96);
+  CHECK(p.gpu.nconmax == 32);
+  PhysicsOptions g = p.on_gpu();
+  CHECK(g.timestep == 0.004);
+  CHECK(g.substeps == 4);
+  CHECK(g.jacobian == "dense");
+  CHECK(p.jacobian == "auto");
+  CHECK(g.control_dt() == Approx(p.control_dt()));
+  CHECK(g.solver == p.solver);  // everything else is the CPU's
+  // without a step of its own, the GPU steps the CPU's
+  PhysicsOptions same = parse_physics(YamlView::load_string("gpu:\n  njmax: 64\n", "g.yaml"));
+  CHECK(same.on_gpu().timestep == same.timestep);
+  CHECK(same.on_gpu().substeps == same.substeps);
+  CHECK(same.gpu.njmax == 64);
+  // the project's file gives the GPU the CPU's control step
+  const PhysicsOptions project = load_physics(default_physics_path());
+  CHECK(project.on_gpu().control_dt() == Approx(project.control_dt()).epsilon(1e-12));
+
+  // another control step is refused, naming the key and both steps
+  TempDir dir;
+  const std::string path = dir.file("physics.yaml");
+  write_file_atomic(path, "timestep: 0.002\nsubsteps: 8\ngpu:\n  timestep: 0.004\n  substeps: 2\n");
+  check_config_error(config_error([&] { load_physics(path); }), path, "gpu.substeps",
+                     "timestep x substeps = 0.016 s", "0.004 x 2 = 0.008 s");
+  write_file_atomic(path, "gpu:\n  rows: 64\n");
+  check_config_error(config_error([&] { load_physics(path); }), path, "gpu.rows",
+                     "one of the keys {timestep, substeps, njmax, nconmax, jacobian}", "unknown key 'rows'");
+  write_file_atomic(path, "gpu:\n  njmax: 0\n");
+  check_config_error(config_error([&] { load_physics(path); }), path, "gpu.njmax",
+                     "an integer > 0", "0");
 }
 
 TEST_CASE("bad physics YAML is a ConfigError naming file, key, expected and actual",
@@ -107,6 +156,8 @@ TEST_CASE("bad physics YAML is a ConfigError naming file, key, expected and actu
        "one of Newton, CG, PGS", "'Gauss'"},
       {"an unknown integrator", "integrator", "integrator: implicit", "integrator",
        "one of Euler, RK4", "'implicit'"},
+      {"an unknown Jacobian layout", "jacobian", "jacobian: banded", "jacobian",
+       "one of auto, dense, sparse", "'banded'"},
       {"a negative timestep", "timestep", "timestep: -0.004", "timestep", "a number > 0",
        "-0.004"},
       {"zero substeps", "substeps", "substeps: 0", "substeps", "an integer > 0", "0"},

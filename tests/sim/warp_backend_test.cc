@@ -139,9 +139,22 @@ TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") 
   CHECK((fault[0] & kFaultOverflow) != 0);
   CHECK((fault[1] & kFaultOverflow) != 0);
   CHECK(w.total_overflows() == 2);
+  // the rows the worlds needed are counted even past the room, and the advice names them
+  const int need = w.max_rows();
+  CHECK(need > 4);
   CHECK_THAT(w.room_advice(), Catch::Contains("2 steps of worlds overflowed") &&
                                   Catch::Contains("4 constraint rows") &&
-                                  Catch::Contains("raise gpu_njmax or gpu_nconmax"));
+                                  Catch::Contains("up to " + std::to_string(need) + " rows") &&
+                                  Catch::Contains("raise gpu.njmax or gpu.nconmax"));
+  // in the scene's own room the same step fits, and its use is counted the same way (the
+  // states differ from the overflowed worlds', whose constraints were dropped)
+  o.njmax = 0;
+  WarpBackend roomy(model, 2, o);
+  roomy.step();
+  CHECK(roomy.total_overflows() == 0);
+  CHECK(roomy.max_rows() > 4);
+  CHECK(roomy.max_rows() <= roomy.options().njmax);
+  CHECK(roomy.room_advice().empty());
 }
 
 TEST_CASE("WarpBackend says what is missing when asked for a GPU it cannot have", "[warp]") {

@@ -11,6 +11,7 @@
 #include "rl/collector.h"
 #include "sim/cuda_driver.h"
 #include "taskpack/warp_pack.h"
+#include "tests/fixture.h"
 
 using namespace bidex;
 
@@ -35,6 +36,7 @@ taskpack::WarpPackOptions on_warp_cpu(uint64_t seed) {
   taskpack::WarpPackOptions o;
   o.seed = seed;
   o.device = "cpu";
+  o.physics_file = test::same_step_physics_file();  // compared step by step with the CPU pack
   return o;
 }
 
@@ -55,6 +57,7 @@ TEST_CASE("a GPU pack writes the CPU pack's padded, one-hot, scaled rows", "[war
   taskpack::PackOptions po;
   po.threads = 1;
   po.seed = 11;
+  po.physics_file = test::same_step_physics_file();
   taskpack::TaskPack cpu(spec, po);
   taskpack::WarpPack gpu(spec, on_warp_cpu(11));
   REQUIRE(gpu.nslot() == 5);

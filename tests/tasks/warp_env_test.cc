@@ -18,6 +18,7 @@ EnvOptions cpu_env(int n, uint64_t seed) {
   o.nslot = n;
   o.threads = 1;
   o.seed = seed;
+  o.physics_file = test::same_step_physics_file();
   return o;
 }
 
@@ -26,6 +27,7 @@ WarpEnvOptions cpu_warp(int n, uint64_t seed) {
   o.nslot = n;
   o.seed = seed;
   o.device = "cpu";
+  o.physics_file = test::same_step_physics_file();  // compared step by step with TaskEnv
   return o;
 }
 
