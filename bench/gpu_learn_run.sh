@@ -32,7 +32,7 @@ cd "$(dirname "$0")/.."
 build=${BIDEX_GPU_BUILD:-build-gpu}
 bidex="$build/apps/bidex"
 runs=/tmp/bidex-gpu-runs
-stage=${1:?stage: build, pack, profile, collect or train}
+stage=${1:?stage: build, physics, pack, profile, collect, train or meta}
 shift
 SECONDS=0
 
@@ -93,7 +93,8 @@ physics)
     file="$out/physics-$sub-$njmax-$jac.yaml"
     gpu_block "$cand" configs/sim/physics.yaml "$file"
     json="$out/physics-$sub-$njmax-$jac.json"
-    cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2 --determinism-steps 0 --physics physics-$sub-$njmax-$jac.yaml"
+    cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2"
+    cmd+=" --determinism-steps 0 --physics physics-$sub-$njmax-$jac.yaml"
     "$bidex" bench warp --task "$tasks" --worlds "$worlds" --seconds 1 --rounds 2 \
       --determinism-steps 0 --physics "$file" --out "$json" >"${json%.json}.log" 2>&1 \
       || { tail "${json%.json}.log"; continue; }
@@ -253,7 +254,7 @@ meta)
   echo "meta: ${SECONDS}s"
   ;;
 *)
-  echo "unknown stage $stage (build, pack, profile, collect, train or meta)" >&2
+  echo "unknown stage $stage (build, physics, pack, profile, collect, train or meta)" >&2
   exit 2
   ;;
 esac

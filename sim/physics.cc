@@ -92,15 +92,17 @@ PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
       o.gpu.jacobian = v->as<std::string>();
       one_of(*v, o.gpu.jacobian, {"auto", "dense", "sparse"});
     }
-    // the GPU may take other physics steps, never another control step (tasks count in it)
-    const PhysicsOptions on = o.on_gpu();
-    if (std::abs(on.control_dt() - o.control_dt()) > 1e-9 * o.control_dt()) {
-      std::ostringstream want, got;
-      want << "timestep x substeps = " << o.control_dt() << " s, the CPU's control step";
-      got << on.timestep << " x " << on.substeps << " = " << on.control_dt() << " s";
-      auto at = g->maybe("substeps");
-      (at ? *at : *g).fail(want.str(), got.str());
-    }
+  }
+  // the GPU may take other physics steps, never another control step (tasks count in it); also
+  // when this file changes the CPU's step under a GPU step of the base options
+  const PhysicsOptions on = o.on_gpu();
+  if (std::abs(on.control_dt() - o.control_dt()) > 1e-9 * o.control_dt()) {
+    std::ostringstream want, got;
+    want << "timestep x substeps = " << o.control_dt() << " s, the CPU's control step";
+    got << on.timestep << " x " << on.substeps << " = " << on.control_dt() << " s";
+    auto g = n.maybe("gpu");
+    auto at = g ? g->maybe("substeps") : std::nullopt;
+    (at ? *at : g ? *g : n).fail(want.str(), got.str());
   }
   return o;
 }

@@ -19,7 +19,8 @@ struct PhysicsOptions {
   int iterations = 20;               // main solver iterations (a cap)
   double tolerance = 1e-8;           // solver early-exit tolerance
   std::string cone = "pyramidal";    // friction cone: pyramidal or elliptic
-  std::string jacobian = "auto";     // constraint Jacobian: auto (dense below 60 dofs), dense, sparse
+  std::string jacobian = "auto";     // constraint Jacobian: auto (dense below 60 dofs), dense,
+                                     // sparse
   // contacts, the hands' self-contact pairs included: time constant (s; MuJoCo raises it to at
   // least 2 timesteps), damping ratio; impedance
   std::array<double, 2> contact_solref{2.0 / 480.0, 1.0};

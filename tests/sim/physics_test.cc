@@ -110,9 +110,21 @@ gpu:
   write_file_atomic(path, "timestep: 0.002\nsubsteps: 8\ngpu:\n  timestep: 0.004\n  substeps: 2\n");
   check_config_error(config_error([&] { load_physics(path); }), path, "gpu.substeps",
                      "timestep x substeps = 0.016 s", "0.004 x 2 = 0.008 s");
+  // also when a file changes the CPU's step under the base options' GPU step
+  PhysicsOptions base;
+  base.gpu.timestep = 1.0 / 240.0;
+  base.gpu.substeps = 4;
+  CHECK(parse_physics(YamlView::load_string("substeps: 4\ntimestep: 0.0041666666666666666\n",
+                                            "same.yaml"),
+                      base)
+            .control_dt() == Approx(1.0 / 60.0));
+  CHECK_THROWS_WITH(parse_physics(YamlView::load_string("substeps: 2\n", "half.yaml"), base),
+                    Catch::Contains("half.yaml") && Catch::Contains("the CPU's control step") &&
+                        Catch::Contains("0.00416667 x 4 = 0.0166667 s"));
   write_file_atomic(path, "gpu:\n  rows: 64\n");
   check_config_error(config_error([&] { load_physics(path); }), path, "gpu.rows",
-                     "one of the keys {timestep, substeps, njmax, nconmax, jacobian}", "unknown key 'rows'");
+                     "one of the keys {timestep, substeps, njmax, nconmax, jacobian}",
+                     "unknown key 'rows'");
   write_file_atomic(path, "gpu:\n  njmax: 0\n");
   check_config_error(config_error([&] { load_physics(path); }), path, "gpu.njmax",
                      "an integer > 0", "0");
