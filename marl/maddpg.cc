@@ -161,8 +161,7 @@ void Maddpg::save(torch::serialize::OutputArchive& root) {
   rl::write_part(root, "actor_targets", *target_list_);
   rl::write_part(root, "critic", *critic_);
   rl::write_part(root, "critic_target", *critic_target_);
-  for (size_t i = 0; i < actor_opts_.size(); ++i)
-    rl::write_part(root, "actor_optimizer_" + std::to_string(i), *actor_opts_[i]);
+  rl::write_optimizers(root, "actor_optimizer_", actor_opts_);
   rl::write_part(root, "critic_optimizer", *critic_opt_);
   root.write("steps", torch::tensor({collected_, gradient_steps_}, torch::kInt64));
 }
@@ -174,8 +173,7 @@ void Maddpg::load(torch::serialize::InputArchive& root, const std::string& path)
     rl::read_module(root, "actor_targets", *target_list_, path, "this run's target actors");
     rl::read_module(root, "critic", *critic_, path, "this run's critic");
     rl::read_module(root, "critic_target", *critic_target_, path, "this run's target critic");
-    for (size_t i = 0; i < actor_opts_.size(); ++i)
-      rl::read_optimizer(root, "actor_optimizer_" + std::to_string(i), *actor_opts_[i]);
+    rl::read_optimizers(root, "actor_optimizer_", actor_opts_);
     rl::read_optimizer(root, "critic_optimizer", *critic_opt_);
     torch::Tensor s;
     root.read("steps", s);

@@ -346,10 +346,8 @@ void OnPolicyMarl::save(torch::serialize::OutputArchive& root) {
   rl::write_part(root, "critics", *critic_list_);
   rl::write_part(root, "value_norms", *value_norm_list_);
   rl::write_part(root, "obs_norm", *obs_norm_);
-  for (size_t k = 0; k < actor_opts_.size(); ++k)
-    rl::write_part(root, "actor_optimizer_" + std::to_string(k), *actor_opts_[k]);
-  for (size_t k = 0; k < critic_opts_.size(); ++k)
-    rl::write_part(root, "critic_optimizer_" + std::to_string(k), *critic_opts_[k]);
+  rl::write_optimizers(root, "actor_optimizer_", actor_opts_);
+  rl::write_optimizers(root, "critic_optimizer_", critic_opts_);
 }
 
 void OnPolicyMarl::load(torch::serialize::InputArchive& root, const std::string& path) {
@@ -359,10 +357,8 @@ void OnPolicyMarl::load(torch::serialize::InputArchive& root, const std::string&
     rl::read_module(root, "critics", *critic_list_, path, "this run's critics");
     rl::read_module(root, "value_norms", *value_norm_list_, path, "this run's critics");
     rl::read_module(root, "obs_norm", *obs_norm_, path, "this run's observation normaliser");
-    for (size_t k = 0; k < actor_opts_.size(); ++k)
-      rl::read_optimizer(root, "actor_optimizer_" + std::to_string(k), *actor_opts_[k]);
-    for (size_t k = 0; k < critic_opts_.size(); ++k)
-      rl::read_optimizer(root, "critic_optimizer_" + std::to_string(k), *critic_opts_[k]);
+    rl::read_optimizers(root, "actor_optimizer_", actor_opts_);
+    rl::read_optimizers(root, "critic_optimizer_", critic_opts_);
   });
 }
 

@@ -58,6 +58,19 @@ void read_module(torch::serialize::InputArchive& root, const std::string& name,
 void read_optimizer(torch::serialize::InputArchive& root, const std::string& name,
                     torch::optim::Optimizer& o);
 
+// A list of optimisers (one per agent, say) as the parts PREFIX_0, PREFIX_1, ...
+template <class Optimizer>
+void write_optimizers(torch::serialize::OutputArchive& root, const std::string& prefix,
+                      const std::vector<std::unique_ptr<Optimizer>>& opts) {
+  for (size_t k = 0; k < opts.size(); ++k) write_part(root, prefix + std::to_string(k), *opts[k]);
+}
+template <class Optimizer>
+void read_optimizers(torch::serialize::InputArchive& root, const std::string& prefix,
+                     const std::vector<std::unique_ptr<Optimizer>>& opts) {
+  for (size_t k = 0; k < opts.size(); ++k)
+    read_optimizer(root, prefix + std::to_string(k), *opts[k]);
+}
+
 // Runs `read` (an algorithm reading its state from a loaded archive) and turns LibTorch's errors
 // into an Error naming `path`: "checkpoint PATH: <problem> (<LibTorch's first line>)".
 void read_checked(const std::string& path, const std::string& problem,

@@ -100,9 +100,6 @@ gpu:
   CHECK(same.on_gpu().timestep == same.timestep);
   CHECK(same.on_gpu().substeps == same.substeps);
   CHECK(same.gpu.njmax == 64);
-  // the project's file gives the GPU the CPU's control step
-  const PhysicsOptions project = load_physics(default_physics_path());
-  CHECK(project.on_gpu().control_dt() == Approx(project.control_dt()).epsilon(1e-12));
 
   // another control step is refused, naming the key and both steps
   TempDir dir;
