@@ -12,9 +12,10 @@
 #   bench/gpu_offline_run.sh offline OUTDIR TASKS ALGOS QUALITIES GRADIENT_STEPS PER_UPDATE SLOTS
 #                                    PARALLEL SECONDS
 #       every algorithm on every dataset, PARALLEL runs at once (learners on the GPU, their
-#       evaluation packs of SLOTS slots on the CPU, one thread each), GRADIENT_STEPS in all with
-#       an evaluation every PER_UPDATE, each stopped after SECONDS of training if not done; then
-#       the table (bench/offline_table.py)
+#       evaluation packs of SLOTS slots on the CPU; one CPU thread each for the simulation and
+#       LibTorch), GRADIENT_STEPS in all with an evaluation every PER_UPDATE, each stopped after
+#       SECONDS of training if not done; then the table (bench/offline_table.py) over every run
+#       so far, so that the runs may be spread over several calls (one per task, say)
 # Everything lives under /tmp/bidex-offline (runs, datasets, the registry); results go to OUTDIR
 # with the machine, date, commit ($BIDEX_COMMIT) and commands.
 set -uo pipefail
@@ -113,8 +114,8 @@ offline)
     task=$0; q=$1; algo=$2; name=$task-$q-$algo
     args=(train --algo "$algo" --dataset "$root/datasets/$task/$q-v0" --device cpu
           -o train.device=cuda -o train.steps="$gsteps" -o "$algo.gradient_steps=$per"
-          -o env.slots="$eslots" -o env.threads=1 --time-limit "$limit" --run "$root/runs/$name"
-          --registry "$reg")
+          -o env.slots="$eslots" -o env.threads=1 -o train.torch_threads=1
+          --time-limit "$limit" --run "$root/runs/$name" --registry "$reg")
     echo "bidex ${args[*]}" >>"$out/commands.txt"
     "$bidex" "${args[@]}" >"$out/runs/$name.txt" 2>/dev/null
     cp "$root/runs/$name/metrics.csv" "$out/runs/$name-metrics.csv" 2>/dev/null

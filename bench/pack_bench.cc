@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <random>
 #include <type_traits>
 #include <vector>
@@ -25,6 +26,7 @@ struct Rate {
   double slot_steps_per_s = 0;
   int64_t steps = 0, episodes = 0;
   double seconds = 0;
+  double launch_seconds = -1;  // GPU: host seconds spent queueing the timed steps
 };
 
 // Steps `pack` with random actions until min_seconds of timed stepping; actions are drawn
@@ -54,6 +56,8 @@ Rate measure(P& pack, const PackBenchConfig& cfg, std::mt19937_64& rng) {
   }
   pack.take_stats();
   Rate r;
+  double launched = 0;
+  if constexpr (std::is_same_v<P, taskpack::WarpPack>) launched = pack.launch_seconds();
   while (r.seconds < cfg.min_seconds) {
     draw();
     auto t0 = std::chrono::steady_clock::now();
@@ -61,6 +65,8 @@ Rate measure(P& pack, const PackBenchConfig& cfg, std::mt19937_64& rng) {
     r.seconds += seconds_since(t0);
     ++r.steps;
   }
+  if constexpr (std::is_same_v<P, taskpack::WarpPack>)
+    r.launch_seconds = pack.launch_seconds() - launched;
   for (auto& st : pack.take_stats()) r.episodes += st.episodes;
   r.slot_steps_per_s = static_cast<double>(r.steps) * pack.nslot() / r.seconds;
   return r;
@@ -82,6 +88,15 @@ Rate measure_pack(const taskpack::PackSpec& spec, const PackBenchConfig& cfg,
   taskpack::TaskPack pack(spec, po);
   *threads = pack.threads();
   return measure(pack, cfg, rng);
+}
+
+json rate_json(const Rate& r) {
+  json j = {{"slot_steps_per_s", r.slot_steps_per_s},
+            {"steps", r.steps},
+            {"seconds", r.seconds},
+            {"episodes", r.episodes}};
+  if (r.launch_seconds >= 0) j["host_launch_seconds"] = r.launch_seconds;
+  return j;
 }
 
 }  // namespace
@@ -124,18 +139,17 @@ json run_pack_bench(const PackBenchConfig& cfg) {
   }
   if (cfg.progress) bar.finish();
 
+  const char* connections = std::getenv("CUDA_DEVICE_MAX_CONNECTIONS");
   json singles = json::array();
   double mean = 0, inv = 0;
   for (int g = 0; g < n; ++g) {
     const Rate& r = best_single[g];
     mean += r.slot_steps_per_s / n;
     inv += 1.0 / r.slot_steps_per_s / n;
-    singles.push_back({{"task", packed.entries[g].task},
-                       {"label", packed.entries[g].label},
-                       {"slot_steps_per_s", r.slot_steps_per_s},
-                       {"steps", r.steps},
-                       {"seconds", r.seconds},
-                       {"episodes", r.episodes}});
+    json one = rate_json(r);
+    one["task"] = packed.entries[g].task;
+    one["label"] = packed.entries[g].label;
+    singles.push_back(one);
   }
   json slots_per_task = json::array();
   for (auto& e : packed.entries) slots_per_task.push_back(e.slots);
@@ -150,10 +164,8 @@ json run_pack_bench(const PackBenchConfig& cfg) {
           {"threads", threads},
           {"rounds", cfg.rounds},
           {"min_seconds", cfg.min_seconds},
-          {"packed", {{"slot_steps_per_s", best_packed.slot_steps_per_s},
-                      {"steps", best_packed.steps},
-                      {"seconds", best_packed.seconds},
-                      {"episodes", best_packed.episodes}}},
+          {"cuda_device_max_connections", connections ? connections : "unset (8)"},
+          {"packed", rate_json(best_packed)},
           {"single", singles},
           {"mean_single_slot_steps_per_s", mean},
           {"harmonic_mean_single_slot_steps_per_s", 1.0 / inv},

@@ -1,5 +1,6 @@
 #include "taskpack/warp_pack.h"
 
+#include "core/clock.h"
 #include "core/error.h"
 #include "tasks/registry.h"
 
@@ -124,7 +125,9 @@ void WarpPack::write_reset_rows() {
 }
 
 void WarpPack::step() {
+  const double t0 = monotonic_seconds();
   for (auto& e : envs_) e->step();  // queued on each entry's stream: the scenes overlap
+  launch_seconds_ += monotonic_seconds() - t0;
   write_rows();
 }
 

@@ -64,6 +64,9 @@ class WarpPack : public Pack {
   // Faults and overflows over all entries' worlds since construction, and what to raise.
   int64_t total_faults() const;
   std::string room_advice() const;
+  // Host seconds spent queueing the entries' steps (kernels and graphs) since construction: a
+  // pack whose launches take as long as its step is bound by the host, not the GPU.
+  double launch_seconds() const { return launch_seconds_; }
   void set_profile(bool on) override;
   // Summed over entries: wall, actions (apply kernels) and task seconds; physics is the rest.
   tasks::StageProfile profile() const override;
@@ -81,6 +84,7 @@ class WarpPack : public Pack {
   std::vector<std::unique_ptr<tasks::WarpTaskEnv>> envs_;
   std::vector<EntryRows> rows_;
   uintptr_t actions_ = 0, obs_ = 0, final_obs_ = 0, reward_ = 0, done_ = 0, bootstrap_ = 0;
+  double launch_seconds_ = 0;
 };
 
 // The device a pack of `spec` steps on: "cpu" or "cuda" as asked, or for "auto" cuda when this
