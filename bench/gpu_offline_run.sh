@@ -16,6 +16,11 @@
 #       LibTorch), GRADIENT_STEPS in all with an evaluation every PER_UPDATE, each stopped after
 #       SECONDS of training if not done; then the table (bench/offline_table.py) over every run
 #       so far, so that the runs may be spread over several calls (one per task, say)
+#   bench/gpu_offline_run.sh probe OUTDIR TASK ALGOS GRADIENT_STEPS PARALLEL_LIST
+#       how fast offline learners share the machine: a random dataset of TASK (200,000
+#       transitions), then for each P of PARALLEL_LIST and each algorithm, P identical runs at
+#       once (learners on the GPU, as above), two updates of GRADIENT_STEPS each; the second
+#       update's seconds give gradient steps/s per run and in all (OUTDIR/probe.json)
 # Everything lives under /tmp/bidex-offline (runs, datasets, the registry); results go to OUTDIR
 # with the machine, date, commit ($BIDEX_COMMIT) and commands.
 set -uo pipefail
@@ -24,7 +29,7 @@ build=${BIDEX_GPU_BUILD:-build-gpu}
 bidex=$(realpath "$build/apps/bidex")
 root=/tmp/bidex-offline
 reg="$root/registry.sqlite"
-stage=${1:?stage: experts, datasets or offline}
+stage=${1:?stage: experts, datasets, offline or probe}
 shift
 SECONDS=0
 mkdir -p "$root/runs" "$root/datasets"
@@ -123,8 +128,57 @@ offline)
   python3 bench/offline_table.py "$reg" "$out" "${BIDEX_COMMIT:-unknown}"
   echo "offline: ${SECONDS}s"
   ;;
+probe)
+  out=$(realpath -m "${1:?OUTDIR}"); task=${2:?TASK}; algos=${3:?ALGOS}; gsteps=${4:?GRADIENT_STEPS}
+  plist=${5:?PARALLEL_LIST}
+  mkdir -p "$out"
+  d="$root/datasets/$task/probe-random-v0"
+  [[ -d $d ]] || "$bidex" collect --quality random --task "$task" --out "$d" --steps 200000 \
+    --slots 4096 --device cuda --no-registry >"$out/probe-collect.txt" 2>&1 || exit 1
+  : >"$out/probe.csv"
+  for p in ${plist//,/ }; do
+    for algo in ${algos//,/ }; do
+      for ((k = 0; k < p; ++k)); do
+        run="$root/runs/probe-$algo-$p-$k"
+        rm -rf "$run"
+        "$bidex" train --algo "$algo" --dataset "$d" --device cpu -o train.device=cuda \
+          -o train.steps=$((2 * gsteps)) -o "$algo.gradient_steps=$gsteps" -o env.slots=64 \
+          -o env.threads=1 -o train.torch_threads=1 --run "$run" --no-registry \
+          >/dev/null 2>&1 &
+      done
+      wait
+      for ((k = 0; k < p; ++k)); do
+        echo "$algo,$p,$(awk -F, 'NR == 2 {a = $3} NR == 3 {print $3 - a}' \
+          "$root/runs/probe-$algo-$p-$k/metrics.csv")" >>"$out/probe.csv"
+      done
+    done
+  done
+  python3 - "$out" "$gsteps" "${BIDEX_COMMIT:-unknown}" "${*:2}" <<'PY'
+import collections, datetime, json, subprocess, sys
+out, g, commit, args = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
+runs = collections.defaultdict(list)
+for line in open(f"{out}/probe.csv"):
+    algo, p, sec = line.strip().split(",")
+    runs[(algo, int(p))].append(float(sec))
+rows = [{"algo": a, "parallel": p, "seconds_per_update": max(s),
+         "steps_per_s_per_run": g / max(s), "steps_per_s_in_all": p * g / max(s)}
+        for (a, p), s in sorted(runs.items())]
+for r in rows:
+    print(f"{r['algo']} x{r['parallel']}: {r['steps_per_s_per_run']:.0f} gradient steps/s a run, "
+          f"{r['steps_per_s_in_all']:.0f} in all")
+machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
+                         capture_output=True, text=True).stdout.strip()
+json.dump({"what": "offline learners sharing one GPU: gradient steps/s of the second update "
+           "(its gradient steps and one evaluation) per run and in all",
+           "machine": machine, "commit": commit,
+           "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+           "command": f"bench/gpu_offline_run.sh probe OUTDIR {args}", "results": rows},
+          open(f"{out}/probe.json", "w"), indent=2)
+PY
+  echo "probe: ${SECONDS}s"
+  ;;
 *)
-  echo "unknown stage $stage (experts, datasets, offline)" >&2
+  echo "unknown stage $stage (experts, datasets, offline, probe)" >&2
   exit 2
   ;;
 esac
