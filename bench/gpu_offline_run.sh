@@ -122,7 +122,8 @@ offline)
           -o env.slots="$eslots" -o env.threads=1 -o train.torch_threads=1
           --time-limit "$limit" --run "$root/runs/$name" --registry "$reg")
     echo "bidex ${args[*]}" >>"$out/commands.txt"
-    "$bidex" "${args[@]}" >"$out/runs/$name.txt" 2>/dev/null
+    "$bidex" "${args[@]}" >"$out/runs/$name.txt" 2>"$out/runs/$name.err" ||
+      { echo "FAILED $name (exit $?):"; tail -3 "$out/runs/$name.err"; }
     cp "$root/runs/$name/metrics.csv" "$out/runs/$name-metrics.csv" 2>/dev/null
     tail -3 "$out/runs/$name.txt"' <"$jobs"
   python3 bench/offline_table.py "$reg" "$out" "${BIDEX_COMMIT:-unknown}"
@@ -144,12 +145,13 @@ probe)
         "$bidex" train --algo "$algo" --dataset "$d" --device cpu -o train.device=cuda \
           -o train.steps=$((2 * gsteps)) -o "$algo.gradient_steps=$gsteps" -o env.slots=64 \
           -o env.threads=1 -o train.torch_threads=1 --run "$run" --no-registry \
-          >/dev/null 2>&1 &
+          >"$out/probe-$algo-$p-$k.log" 2>&1 &
       done
       wait
       for ((k = 0; k < p; ++k)); do
+        # empty where the run failed (its log says why)
         echo "$algo,$p,$(awk -F, 'NR == 2 {a = $3} NR == 3 {print $3 - a}' \
-          "$root/runs/probe-$algo-$p-$k/metrics.csv")" >>"$out/probe.csv"
+          "$root/runs/probe-$algo-$p-$k/metrics.csv" 2>/dev/null)" >>"$out/probe.csv"
       done
     done
   done
@@ -157,15 +159,20 @@ probe)
 import collections, datetime, json, subprocess, sys
 out, g, commit, args = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
 runs = collections.defaultdict(list)
+failed = collections.Counter()
 for line in open(f"{out}/probe.csv"):
     algo, p, sec = line.strip().split(",")
-    runs[(algo, int(p))].append(float(sec))
-rows = [{"algo": a, "parallel": p, "seconds_per_update": max(s),
-         "steps_per_s_per_run": g / max(s), "steps_per_s_in_all": p * g / max(s)}
+    if sec:
+        runs[(algo, int(p))].append(float(sec))
+    else:
+        failed[(algo, int(p))] += 1
+rows = [{"algo": a, "parallel": p, "finished": len(s), "failed": failed[(a, p)],
+         "seconds_per_update": max(s), "steps_per_s_per_run": g / max(s),
+         "steps_per_s_in_all": len(s) * g / max(s)}
         for (a, p), s in sorted(runs.items())]
 for r in rows:
     print(f"{r['algo']} x{r['parallel']}: {r['steps_per_s_per_run']:.0f} gradient steps/s a run, "
-          f"{r['steps_per_s_in_all']:.0f} in all")
+          f"{r['steps_per_s_in_all']:.0f} in all ({r['failed']} failed)")
 machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
                          capture_output=True, text=True).stdout.strip()
 json.dump({"what": "offline learners sharing one GPU: gradient steps/s of the second update "
