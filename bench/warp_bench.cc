@@ -64,8 +64,9 @@ json task_step(const std::string& id, int n, const WarpBenchConfig& cfg) {
   int64_t checked = 0;  // task slot-steps that went through the fault check
   for (int r = 0; r < cfg.rounds; ++r) {
     Rate a = timed(w, cfg, step, raw);
-    // raw stepping never resets, and its random base forces carry hands far from where the
-    // task's controller expects them: every world starts a new episode before the task steps
+    // raw stepping never resets and pushes the free hands with random base forces; task steps
+    // that went on from there faulted (bench/results/gpu-faults-h100), so every world starts a
+    // new episode first
     env.reset();
     Rate b = timed(w, cfg, step, full);
     checked += b.steps * static_cast<int64_t>(n);
