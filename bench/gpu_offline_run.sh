@@ -34,6 +34,19 @@ shift
 SECONDS=0
 mkdir -p "$root/runs" "$root/datasets"
 
+# One offline run: learner on the GPU, its evaluation pack on the CPU, one CPU thread each for
+# the simulation and LibTorch; the command goes to $cmdlog when that is set.
+#   offline_run RUN DATASET ALGO GRADIENT_STEPS PER_UPDATE SLOTS [more bidex train options]
+offline_run() {
+  local run=$1 data=$2 algo=$3 steps=$4 per=$5 slots=$6
+  shift 6
+  local args=(train --algo "$algo" --dataset "$data" --device cpu -o train.device=cuda
+              -o train.steps="$steps" -o "$algo.gradient_steps=$per" -o env.slots="$slots"
+              -o env.threads=1 -o train.torch_threads=1 --run "$run" "$@")
+  [[ -n ${cmdlog:-} ]] && echo "bidex ${args[*]}" >>"$cmdlog"
+  "$bidex" "${args[@]}"
+}
+
 case "$stage" in
 experts)
   out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; slots=${3:?SLOTS}; budget=${4:?SECONDS}
@@ -114,15 +127,14 @@ offline)
       done
     done
   done
-  export bidex root reg out gsteps per eslots limit
+  cmdlog="$out/commands.txt"
+  export -f offline_run
+  export bidex root reg out gsteps per eslots limit cmdlog
   xargs -P "$parallel" -L 1 bash -c '
     task=$0; q=$1; algo=$2; name=$task-$q-$algo
-    args=(train --algo "$algo" --dataset "$root/datasets/$task/$q-v0" --device cpu
-          -o train.device=cuda -o train.steps="$gsteps" -o "$algo.gradient_steps=$per"
-          -o env.slots="$eslots" -o env.threads=1 -o train.torch_threads=1
-          --time-limit "$limit" --run "$root/runs/$name" --registry "$reg")
-    echo "bidex ${args[*]}" >>"$out/commands.txt"
-    "$bidex" "${args[@]}" >"$out/runs/$name.txt" 2>"$out/runs/$name.err" ||
+    offline_run "$root/runs/$name" "$root/datasets/$task/$q-v0" "$algo" "$gsteps" "$per" \
+      "$eslots" --time-limit "$limit" --registry "$reg" \
+      >"$out/runs/$name.txt" 2>"$out/runs/$name.err" ||
       { echo "FAILED $name (exit $?):"; tail -3 "$out/runs/$name.err"; }
     cp "$root/runs/$name/metrics.csv" "$out/runs/$name-metrics.csv" 2>/dev/null
     tail -3 "$out/runs/$name.txt"' <"$jobs"
@@ -142,9 +154,7 @@ probe)
       for ((k = 0; k < p; ++k)); do
         run="$root/runs/probe-$algo-$p-$k"
         rm -rf "$run"
-        "$bidex" train --algo "$algo" --dataset "$d" --device cpu -o train.device=cuda \
-          -o train.steps=$((2 * gsteps)) -o "$algo.gradient_steps=$gsteps" -o env.slots=64 \
-          -o env.threads=1 -o train.torch_threads=1 --run "$run" --no-registry \
+        offline_run "$run" "$d" "$algo" $((2 * gsteps)) "$gsteps" 64 --no-registry \
           >"$out/probe-$algo-$p-$k.log" 2>&1 &
       done
       wait
