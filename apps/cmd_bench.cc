@@ -140,7 +140,10 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   pack->add_option("--out,-o", *pack_out, "Write the JSON here (atomically) instead of stdout");
   pack->footer("Example:\n  bidex bench pack --suite MT4 --slots 64 --seconds 0.5 --rounds 1");
-  pack->callback([pc, pack_out] { emit(bench::run_pack_bench(*pc), *pack_out, command_line()); });
+  pack->callback([pc, pack_out] {
+    request_gpu_queues(pc->device);
+    emit(bench::run_pack_bench(*pc), *pack_out, command_line());
+  });
 
   // bench warp
   auto wc = std::make_shared<bench::WarpBenchConfig>();

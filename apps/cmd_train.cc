@@ -288,6 +288,7 @@ void add_train_command(CLI::App& app) {
       "  bidex train --task hand_over --algo happo --agents finger\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
   cmd->callback([o] {
+    request_gpu_queues(o->device);
     rl::TrainOptions to;
     to.command = command_line();
     to.stop_after_updates = o->stop_after;

@@ -24,6 +24,11 @@ std::string record_dataset(registry::Registry& reg, const std::string& path);
 const std::string& command_line();
 void set_command_line(int argc, char** argv);
 
+// Asks CUDA for 32 hardware queues (CUDA_DEVICE_MAX_CONNECTIONS, unless set) when `device`, a
+// command's --device, is not "cpu". Call it first in the callback of a command that may step a
+// GPU pack: CUDA reads the setting when the process's context is made.
+void request_gpu_queues(const std::string& device);
+
 void add_model_command(CLI::App& app);  // bidex model: write standalone MJCF of the hands
 void add_sim_command(CLI::App& app);    // bidex sim: step the two-hand scene, random actions
 void add_bench_command(CLI::App& app);  // bidex bench sim|soak|physics|task

@@ -20,6 +20,14 @@ namespace {
 std::string g_command_line;
 }
 const std::string& command_line() { return g_command_line; }
+void request_gpu_queues(const std::string& device) {
+  // 32 hardware queues instead of CUDA's default 8, so that the streams of a GPU pack's scenes
+  // (up to twenty) do not wait on each other's work: MT20 packed ran 1.07x (16,384 slots) to
+  // 1.41x (2,048) faster (bench/results/pack-connections-h100). Only where the simulation may
+  // run on the GPU: every queue costs each process resources on the device, and many processes
+  // sharing one GPU (offline learners) do not need them. A value the user set wins.
+  if (device != "cpu") setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", /*overwrite=*/0);
+}
 void set_command_line(int argc, char** argv) {
   g_command_line = "bidex";
   for (int i = 1; i < argc; ++i) g_command_line += std::string(" ") + argv[i];
@@ -28,11 +36,6 @@ void set_command_line(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   bidex::apps::set_command_line(argc, argv);
-  // Before any CUDA context exists: 32 hardware queues instead of CUDA's default 8, so that the
-  // streams of a GPU pack's scenes (up to twenty) do not wait on each other's work. MT20 packed
-  // ran 1.07x (16,384 slots) to 1.41x (2,048) faster (bench/results/pack-connections-h100).
-  // A value the user set wins.
-  setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", /*overwrite=*/0);
   // algorithm families outside rl: one registration each
   bidex::metarl::register_algorithms();
   bidex::offline::register_algorithms();
