@@ -134,11 +134,15 @@ offline)
     task=$0; q=$1; algo=$2; name=$task-$q-$algo
     offline_run "$root/runs/$name" "$root/datasets/$task/$q-v0" "$algo" "$gsteps" "$per" \
       "$eslots" --time-limit "$limit" --registry "$reg" \
-      >"$out/runs/$name.txt" 2>"$out/runs/$name.err" ||
-      { echo "FAILED $name (exit $?):"; tail -3 "$out/runs/$name.err"; }
+      >"$out/runs/$name.txt" 2>"$out/runs/$name.err"
+    rc=$?
+    # 130: stopped at --time-limit (or Ctrl-C), with a checkpoint and its evaluations
+    if ((rc == 130)); then echo "STOPPED $name at its time limit"
+    elif ((rc != 0)); then echo "FAILED $name (exit $rc):"; tail -3 "$out/runs/$name.err"; fi
     cp "$root/runs/$name/metrics.csv" "$out/runs/$name-metrics.csv" 2>/dev/null
     tail -3 "$out/runs/$name.txt"' <"$jobs"
   python3 bench/offline_table.py "$reg" "$out" "${BIDEX_COMMIT:-unknown}"
+  cp "$reg" "$out/registry.sqlite"
   echo "offline: ${SECONDS}s"
   ;;
 probe)

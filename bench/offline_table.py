@@ -8,6 +8,7 @@ usage: offline_table.py REGISTRY OUT COMMIT
 """
 import datetime
 import json
+import platform
 import sqlite3
 import statistics
 import subprocess
@@ -48,6 +49,7 @@ def main(reg_path, out, commit):
         return o["ref_min"], o["ref_max"]
 
     cells = {}
+    short = set()  # cells with a run that stopped before its gradient steps (time limit)
     runs = []
     for rid, algo, ck, ret, steps, status, seed in db.execute(
             "SELECT id, algo, dataset, final_return, steps, status, seed FROM runs "
@@ -62,6 +64,8 @@ def main(reg_path, out, commit):
                      "final_return": ret, "normalised": norm})
         if norm is not None:
             cells.setdefault((d["task"], d["quality"], algo), []).append(norm)
+            if status != "finished":
+                short.add((d["task"], d["quality"], algo))
     tasks = sorted({k[0] for k in cells})
     lines = ["| task | dataset | " + " | ".join(a.upper().replace("TD3BC", "TD3+BC")
                                                  for a in ALGOS) + " |",
@@ -77,17 +81,26 @@ def main(reg_path, out, commit):
                 paper = PAPER.get((t, q), {}).get(a)
                 mean = statistics.mean(v) if v else None
                 table.append({"task": t, "quality": q, "algo": a, "normalised_mean": mean,
-                              "runs": len(v or []), "original": paper})
+                              "runs": len(v or []), "stopped_short": (t, q, a) in short,
+                              "original": paper})
                 text = "-" if mean is None else f"{mean:.1f}"
                 if v and len(v) > 1:
                     text += f" ± {statistics.stdev(v):.1f}"
+                if (t, q, a) in short:
+                    text += "*"
                 row.append(text + (f" ({paper})" if paper is not None else ""))
             lines.append(f"| {t} | {q} | " + " | ".join(row) + " |")
-    machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
-                             capture_output=True, text=True).stdout.strip()
+    try:
+        machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
+                                 capture_output=True, text=True).stdout.strip()
+    except FileNotFoundError:  # a machine without the NVIDIA driver
+        machine = platform.node()
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
     md = ["Normalised score (random 0, online PPO 100) of each offline algorithm's final policy, "
           "in brackets the original's.", "", *lines, ""]
+    if short:
+        md += ["\\* a run of this cell stopped at its time limit before its gradient steps "
+               "(`gradient_steps` in table.json).", ""]
     open(f"{out}/table.md", "w").write("\n".join(md))
     json.dump({"what": "offline RL: normalised scores per task, dataset and algorithm",
                "machine": machine, "date": now, "commit": commit,
