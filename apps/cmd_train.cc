@@ -429,23 +429,56 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
               r.adapt_steps);
   std::optional<registry::Registry> reg;
   if (!o.no_registry) reg.emplace(o.registry.empty() ? registry::default_path() : o.registry);
-  std::printf("%-20s %-22s %16s %16s %10s\n", "task", "id", "return before", "return after",
-              "norm after");
+  std::printf("%-20s %-22s %16s %16s %11s %10s\n", "task", "id", "return before",
+              "return after", "norm before", "norm after");
   nlohmann::json per = nlohmann::json::array();
+  // the normalised scores' means over the entries whose task has both references
+  double norm_before_sum = 0, norm_after_sum = 0;
+  int normalised = 0;
+  auto opt_json = [](const std::optional<double>& v) {
+    return v ? nlohmann::json(*v) : nlohmann::json();
+  };
   for (auto& e : r.per_task) {
-    std::optional<double> norm;
-    if (reg) norm = reg->normalised(e.task, e.return_after);
-    std::printf("%-20s %-22s %16s %16s %10s\n", e.label.c_str(), e.task.c_str(),
+    std::optional<double> before, after;
+    if (reg) {
+      before = reg->normalised(e.task, e.return_before);
+      after = reg->normalised(e.task, e.return_after);
+    }
+    if (before && after) {
+      norm_before_sum += *before;
+      norm_after_sum += *after;
+      ++normalised;
+    }
+    std::printf("%-20s %-22s %16s %16s %11s %10s\n", e.label.c_str(), e.task.c_str(),
                 num(e.return_before).c_str(), num(e.return_after).c_str(),
-                norm ? num(*norm, "%.3f").c_str() : "-");
+                before ? num(*before, "%.3f").c_str() : "-",
+                after ? num(*after, "%.3f").c_str() : "-");
     per.push_back({{"label", e.label}, {"task", e.task}, {"episodes", e.episodes},
                    {"return_before", e.return_before}, {"return_after", e.return_after},
                    {"success_before", e.success_before}, {"success_after", e.success_after},
-                   {"normalised_after", norm ? nlohmann::json(*norm) : nlohmann::json()}});
+                   {"normalised_before", opt_json(before)},
+                   {"normalised_after", opt_json(after)}});
   }
   std::printf("mean: return %s -> %s, success %.3f -> %.3f, faults %lld\n",
               num(r.return_before).c_str(), num(r.return_after).c_str(), r.success_before,
               r.success_after, static_cast<long long>(r.faults));
+  std::optional<double> mean_before, mean_after;
+  if (normalised > 0) {
+    mean_before = norm_before_sum / normalised;
+    mean_after = norm_after_sum / normalised;
+    std::printf("normalised (random 0, ground truth 1): %s -> %s, the mean of %d of %zu "
+                "entries%s\n",
+                num(*mean_before, "%.3f").c_str(), num(*mean_after, "%.3f").c_str(), normalised,
+                r.per_task.size(),
+                normalised < static_cast<int>(r.per_task.size())
+                    ? " (the others' tasks lack a reference: bidex registry reference)"
+                    : "");
+  } else {
+    std::printf("normalised: none (%s)\n",
+                reg ? "no task here has both references in the registry: bidex registry "
+                      "reference"
+                    : "--no-registry");
+  }
   int64_t eval_id = 0;
   if (reg) {
     if (auto run = reg->run_by_dir(absolute(o.run))) {
@@ -493,6 +526,9 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
                         {"return_after", r.return_after},
                         {"success_before", r.success_before},
                         {"success_after", r.success_after},
+                        {"normalised_before", opt_json(mean_before)},
+                        {"normalised_after", opt_json(mean_after)},
+                        {"normalised_entries", normalised},
                         {"faults", r.faults},
                         {"per_task", per},
                         {"registry_evaluation", eval_id},
@@ -537,7 +573,8 @@ void add_eval_command(CLI::App& app) {
       "--split", o->split,
       "Meta-RL runs (maml, promp, rl2): the suite's split to adapt to, train or test (default "
       "test); each task is scored before and after adaptation, --episodes slots per task (per "
-      "goal of a goal distribution). With --random --suite: the split to play (default train)");
+      "goal of a goal distribution), and normalised with the registry's references (random 0, "
+      "ground truth 1). With --random --suite: the split to play (default train)");
   cmd->add_option("--adapt-episodes", o->adapt_episodes,
                   "Meta-RL: episodes per slot that adaptation learns from")
       ->check(CLI::Range(1, 1000))->capture_default_str()->needs(split);

@@ -2,12 +2,16 @@
 // stop, resume and evaluate with the protocol (before and after adaptation, per task);
 // adaptation moves each task's policy its own way; the refusals (a suite without a held-out
 // test split, an unknown split, a non-meta run, bad settings); and, with the [learning] label,
-// meta-training on a small goal distribution whose held-out goals gain from adaptation.
+// meta-training on a small goal distribution whose held-out goals gain from adaptation; and
+// `bidex eval --split`'s normalised scores through the binary.
 #include "tests/rl/rl_fixture.h"
 
 #include <algorithm>
 
+#include <nlohmann/json.hpp>
+
 #include "core/error.h"
+#include "core/files.h"
 #include "metarl/algorithms.h"
 #include "rl/algorithm.h"
 #include "rl/checkpoint.h"
@@ -122,6 +126,79 @@ TEST_CASE("meta runs stop, resume from their checkpoints and adapt at evaluation
     CHECK(again.return_before == r.return_before);
     CHECK(again.return_after == r.return_after);
   }
+}
+
+TEST_CASE("bidex eval --split normalises each task before and after adaptation with the "
+          "registry's references, and says when it cannot",
+          "[metarl][cmd]") {
+  test::TaskTempDir tmp;
+  auto q = [](const std::string& s) { return "'" + s + "'"; };
+  // trained on goals of catch_underarm_raise, which the registry does not know (so it has no
+  // references); held out: goals of it and of catch_underarm, whose references the test sets
+  const std::string suite = tmp.write("goals.yaml", R"(id: goals
+description: catch_underarm_raise goals, and held-out goals of it and of catch_underarm
+mode: meta
+source: this test
+goal_seed: 7
+train:
+  - {task: catch_underarm_raise, label: train, goals: {count: 4, half_extent: [.05, .05, .03]}}
+test:
+  - {task: catch_underarm, label: known, goals: {count: 2, half_extent: [.05, .05, .03]}}
+  - {task: catch_underarm_raise, label: unknown, goals: {count: 2, half_extent: [.05, .05, .03]}}
+)");
+  const std::string reg = tmp.file("registry.sqlite"), run = tmp.file("promp");
+  test::CommandResult r = test::bidex_run(
+      "train --suite " + q(suite) + " --algo promp -o env.slots=8 -o env.threads=1 "
+      "-o train.device=cpu -o train.torch_threads=1 -o 'promp.hidden=[16]' -o promp.horizon=4 "
+      "-o promp.epochs=1 -o train.steps=64 --run " + q(run) + " --registry " + q(reg));
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  for (const auto& [kind, value] : {std::pair{"random", "-2"}, std::pair{"ground_truth", "6"}}) {
+    r = test::bidex_run("registry reference --registry " + q(reg) + " --task "
+                        "catch_underarm --kind " + kind + " --value=" + value +
+                        " --source test");
+    REQUIRE(r.rc == 0);
+  }
+  const std::string json = tmp.file("eval.json");
+  r = test::bidex_run("eval --run " + q(run) + " --split test --episodes 2 --registry " + q(reg) +
+                      " --json " + q(json));
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK_THAT(r.out, Catch::Contains("normalised (random 0, ground truth 1): "));
+  CHECK_THAT(r.out, Catch::Contains("the mean of 1 of 2 entries (the others' tasks lack a "
+                                    "reference"));
+  auto j = nlohmann::json::parse(read_file(json));
+  REQUIRE(j["per_task"].size() == 2);
+  CHECK(j["per_task"][1]["task"] == "catch_underarm_raise");
+  CHECK(j["per_task"][1]["normalised_before"].is_null());
+  CHECK(j["per_task"][1]["normalised_after"].is_null());
+  const auto& e = j["per_task"][0];
+  REQUIRE(e["task"] == "catch_underarm");
+  // (return - random) / (ground truth - random)
+  const double before = (e["return_before"].get<double>() + 2) / 8;
+  const double after = (e["return_after"].get<double>() + 2) / 8;
+  CHECK(e["normalised_before"].get<double>() == Approx(before).epsilon(1e-12));
+  CHECK(e["normalised_after"].get<double>() == Approx(after).epsilon(1e-12));
+  CHECK(j["normalised_before"].get<double>() == Approx(before).epsilon(1e-12));
+  CHECK(j["normalised_after"].get<double>() == Approx(after).epsilon(1e-12));
+  CHECK(j["normalised_entries"] == 1);
+  CHECK(j["registry_evaluation"].get<int64_t>() > 0);
+
+  // the train split's only task has no references; and no registry at all
+  r = test::bidex_run("eval --run " + q(run) + " --split train --episodes 2 --registry " + q(reg));
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK_THAT(r.out, Catch::Contains("normalised: none (no task here has both references in the "
+                                    "registry"));
+  r = test::bidex_run("eval --run " + q(run) + " --split test --episodes 2 --no-registry --json " +
+                      q(json));
+  INFO(r.out);
+  REQUIRE(r.rc == 0);
+  CHECK_THAT(r.out, Catch::Contains("normalised: none (--no-registry)"));
+  j = nlohmann::json::parse(read_file(json));
+  CHECK(j["normalised_after"].is_null());
+  CHECK(j["per_task"][0]["normalised_before"].is_null());
+  CHECK(j["normalised_entries"] == 0);
 }
 
 TEST_CASE("MAML and ProMP adapt each task's policy from its own rows, and not without steps",
