@@ -155,7 +155,7 @@ test:
   REQUIRE(r.rc == 0);
   for (const auto& [kind, value] : {std::pair{"random", "-2"}, std::pair{"ground_truth", "6"}}) {
     r = test::bidex_run("registry reference --registry " + q(reg) + " --task "
-                        "catch_underarm --kind " + kind + " --value=" + value +
+                        "catch_underarm --kind " + kind + " --value " + value +
                         " --source test");
     REQUIRE(r.rc == 0);
   }
