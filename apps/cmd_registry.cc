@@ -113,23 +113,18 @@ void print_evaluation(const Registry& reg, const registry::Evaluation& e) {
   for (auto& s : e.scores) w = std::max(w, s.label.size());
   std::printf("  %-*s  %-20s %22s  %24s %9s %11s\n", static_cast<int>(w), "label", "task",
               "return before -> after", "success before -> after", "episodes", "normalised");
-  double sum = 0;
-  int normalised = 0;
-  for (auto& s : e.scores) {
-    const auto n = reg.normalised(s.task, s.return_after);
-    if (n) {
-      sum += *n;
-      ++normalised;
-    }
+  const registry::AdaptNormalised n = reg.normalised_scores(e.scores);
+  for (size_t i = 0; i < e.scores.size(); ++i) {
+    const auto& s = e.scores[i];
     std::printf("  %-*s  %-20s %9s -> %-9s  %10s -> %-10s %9lld %11s\n", static_cast<int>(w),
                 s.label.c_str(), s.task.c_str(), num(s.return_before).c_str(),
                 num(s.return_after).c_str(), num(s.success_before, "%.3f").c_str(),
                 num(s.success_after, "%.3f").c_str(), static_cast<long long>(s.episodes),
-                num(n, "%.3f").c_str());
+                num(n.after[i], "%.3f").c_str());
   }
-  if (normalised > 0)
+  if (n.count > 0)
     std::printf("  mean normalised score after adaptation: %.3f (%d of %zu tasks)\n",
-                sum / normalised, normalised, e.scores.size());
+                *n.mean_after, n.count, e.scores.size());
   else
     std::printf("  mean normalised score after adaptation: - (no task has both references)\n");
 }

@@ -429,48 +429,54 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
               r.adapt_steps);
   std::optional<registry::Registry> reg;
   if (!o.no_registry) reg.emplace(o.registry.empty() ? registry::default_path() : o.registry);
-  std::printf("%-20s %-22s %16s %16s %11s %10s\n", "task", "id", "return before",
-              "return after", "norm before", "norm after");
-  nlohmann::json per = nlohmann::json::array();
-  // the normalised scores' means over the entries whose task has both references
-  double norm_before_sum = 0, norm_after_sum = 0;
-  int normalised = 0;
+  // the scores as the registry stores them, normalised with its references
+  std::vector<registry::AdaptScore> scores;
+  for (auto& e : r.per_task) {
+    registry::AdaptScore a;
+    a.task = e.task;
+    a.label = e.label;
+    a.return_before = e.return_before;
+    a.return_after = e.return_after;
+    a.success_before = e.success_before;
+    a.success_after = e.success_after;
+    a.episodes = e.episodes;
+    scores.push_back(a);
+  }
+  registry::AdaptNormalised norm;
+  if (reg) {
+    norm = reg->normalised_scores(scores);
+  } else {
+    norm.before.assign(scores.size(), std::nullopt);
+    norm.after.assign(scores.size(), std::nullopt);
+  }
   auto opt_json = [](const std::optional<double>& v) {
     return v ? nlohmann::json(*v) : nlohmann::json();
   };
-  for (auto& e : r.per_task) {
-    std::optional<double> before, after;
-    if (reg) {
-      before = reg->normalised(e.task, e.return_before);
-      after = reg->normalised(e.task, e.return_after);
-    }
-    if (before && after) {
-      norm_before_sum += *before;
-      norm_after_sum += *after;
-      ++normalised;
-    }
+  std::printf("%-20s %-22s %16s %16s %11s %10s\n", "task", "id", "return before",
+              "return after", "norm before", "norm after");
+  nlohmann::json per = nlohmann::json::array();
+  for (size_t i = 0; i < scores.size(); ++i) {
+    const auto& e = scores[i];
     std::printf("%-20s %-22s %16s %16s %11s %10s\n", e.label.c_str(), e.task.c_str(),
                 num(e.return_before).c_str(), num(e.return_after).c_str(),
-                before ? num(*before, "%.3f").c_str() : "-",
-                after ? num(*after, "%.3f").c_str() : "-");
+                norm.before[i] ? num(*norm.before[i], "%.3f").c_str() : "-",
+                norm.after[i] ? num(*norm.after[i], "%.3f").c_str() : "-");
     per.push_back({{"label", e.label}, {"task", e.task}, {"episodes", e.episodes},
                    {"return_before", e.return_before}, {"return_after", e.return_after},
-                   {"success_before", e.success_before}, {"success_after", e.success_after},
-                   {"normalised_before", opt_json(before)},
-                   {"normalised_after", opt_json(after)}});
+                   {"success_before", opt_json(e.success_before)},
+                   {"success_after", opt_json(e.success_after)},
+                   {"normalised_before", opt_json(norm.before[i])},
+                   {"normalised_after", opt_json(norm.after[i])}});
   }
   std::printf("mean: return %s -> %s, success %.3f -> %.3f, faults %lld\n",
               num(r.return_before).c_str(), num(r.return_after).c_str(), r.success_before,
               r.success_after, static_cast<long long>(r.faults));
-  std::optional<double> mean_before, mean_after;
-  if (normalised > 0) {
-    mean_before = norm_before_sum / normalised;
-    mean_after = norm_after_sum / normalised;
+  if (norm.count > 0) {
     std::printf("normalised (random 0, ground truth 1): %s -> %s, the mean of %d of %zu "
                 "entries%s\n",
-                num(*mean_before, "%.3f").c_str(), num(*mean_after, "%.3f").c_str(), normalised,
-                r.per_task.size(),
-                normalised < static_cast<int>(r.per_task.size())
+                num(*norm.mean_before, "%.3f").c_str(), num(*norm.mean_after, "%.3f").c_str(),
+                norm.count, scores.size(),
+                norm.count < static_cast<int>(scores.size())
                     ? " (the others' tasks lack a reference: bidex registry reference)"
                     : "");
   } else {
@@ -489,17 +495,7 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
       ev.adapt_steps = r.adapt_steps;
       ev.seed = o.seed;
       ev.checkpoint = policy.checkpoint();
-      for (auto& e : r.per_task) {
-        registry::AdaptScore a;
-        a.task = e.task;
-        a.label = e.label;
-        a.return_before = e.return_before;
-        a.return_after = e.return_after;
-        a.success_before = e.success_before;
-        a.success_after = e.success_after;
-        a.episodes = e.episodes;
-        ev.scores.push_back(a);
-      }
+      ev.scores = scores;
       eval_id = reg->add_evaluation(ev);
       std::printf("registry %s: evaluation %lld of run %lld (bidex registry evals --run %lld; "
                   "bidex registry report age --eval %lld)\n",
@@ -526,9 +522,9 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
                         {"return_after", r.return_after},
                         {"success_before", r.success_before},
                         {"success_after", r.success_after},
-                        {"normalised_before", opt_json(mean_before)},
-                        {"normalised_after", opt_json(mean_after)},
-                        {"normalised_entries", normalised},
+                        {"normalised_before", opt_json(norm.mean_before)},
+                        {"normalised_after", opt_json(norm.mean_after)},
+                        {"normalised_entries", norm.count},
                         {"faults", r.faults},
                         {"per_task", per},
                         {"registry_evaluation", eval_id},

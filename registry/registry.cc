@@ -945,4 +945,23 @@ std::optional<double> Registry::normalised(const std::string& task, double mean_
   return (mean_return - random->value) / (truth->value - random->value);
 }
 
+AdaptNormalised Registry::normalised_scores(const std::vector<AdaptScore>& scores) const {
+  AdaptNormalised n;
+  double before = 0, after = 0;
+  for (const AdaptScore& s : scores) {
+    n.before.push_back(normalised(s.task, s.return_before));
+    n.after.push_back(normalised(s.task, s.return_after));
+    if (n.before.back() && n.after.back()) {
+      before += *n.before.back();
+      after += *n.after.back();
+      ++n.count;
+    }
+  }
+  if (n.count > 0) {
+    n.mean_before = before / n.count;
+    n.mean_after = after / n.count;
+  }
+  return n;
+}
+
 }  // namespace bidex::registry

@@ -93,6 +93,15 @@ struct AdaptScore {
   int64_t episodes = 0;               // evaluation slots of this task
 };
 
+// The normalised scores of a meta-RL evaluation's entries (Registry::normalised_scores), one per
+// AdaptScore, and their means over the `count` entries whose task has both references (empty
+// when none has).
+struct AdaptNormalised {
+  std::vector<std::optional<double>> before, after;
+  std::optional<double> mean_before, mean_after;
+  int count = 0;
+};
+
 // A meta-RL evaluation of a run on one split of its suite (`bidex eval --run DIR --split ...`).
 struct Evaluation {
   int64_t id = 0;                     // assigned by add_evaluation
@@ -168,6 +177,8 @@ class Registry {
   std::optional<Reference> reference(const std::string& task, const std::string& kind) const;
   // (return - random) / (ground truth - random); empty when a reference is missing.
   std::optional<double> normalised(const std::string& task, double mean_return) const;
+  // Each score's normalised return before and after adaptation, and their means.
+  AdaptNormalised normalised_scores(const std::vector<AdaptScore>& scores) const;
 
  private:
   // Brings the suites table up to date with configs/suites (the suites taskpack knows).

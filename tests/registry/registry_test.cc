@@ -24,6 +24,8 @@
 
 using namespace bidex;
 using namespace bidex::test;
+using registry::AdaptNormalised;
+using registry::AdaptScore;
 using registry::Registry;
 
 namespace {
@@ -189,7 +191,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
 }
 
 TEST_CASE("normalised score = (return - random) / (ground truth - random), empty without a "
-          "reference", "[registry]") {
+          "reference; an evaluation's scores and their means", "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));
   // hand_over: ground truth 30.8 (references.yaml), random 2 set here
@@ -208,11 +210,37 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   // missing references: the file gives every task a random score, ground truths only to nine
   CHECK_FALSE(reg.normalised("switch", 10.0));          // random only
   CHECK_FALSE(reg.normalised("no_such_task", 10.0));
-  CHECK_FALSE(reg.normalised("no_such_task", 10.0));
   // equal references cannot normalise
   reg.set_reference({"scissors", "random", 3.0, "test"});
   reg.set_reference({"scissors", "ground_truth", 3.0, "test"});
   CHECK_FALSE(reg.normalised("scissors", 10.0));
+
+  // a meta-RL evaluation's entries: each before and after, and the means over the entries
+  // whose task has both references (hand_over and pen here; switch has no ground truth)
+  std::vector<AdaptScore> scores(3);
+  scores[0].task = "hand_over";
+  scores[0].return_before = 2.0;   // 0
+  scores[0].return_after = 16.4;   // 0.5
+  scores[1].task = "switch";
+  scores[1].return_before = 1.0;
+  scores[1].return_after = 2.0;
+  scores[2].task = "pen";
+  scores[2].return_before = 10.0;  // 0
+  scores[2].return_after = -10.0;  // 1
+  const AdaptNormalised n = reg.normalised_scores(scores);
+  REQUIRE(n.before.size() == 3);
+  REQUIRE(n.after.size() == 3);
+  CHECK(*n.after[0] == Approx(0.5));
+  CHECK_FALSE(n.before[1]);
+  CHECK_FALSE(n.after[1]);
+  CHECK(*n.after[2] == Approx(1.0));
+  CHECK(n.count == 2);
+  CHECK(*n.mean_before == Approx(0.0).margin(1e-12));
+  CHECK(*n.mean_after == Approx(0.75));
+  const AdaptNormalised none = reg.normalised_scores({scores[1]});
+  CHECK(none.count == 0);
+  CHECK_FALSE(none.mean_before);
+  CHECK_FALSE(none.mean_after);
 }
 
 TEST_CASE("runs, their scores and suites round-trip", "[registry]") {
