@@ -22,7 +22,8 @@
 #       once (learners on the GPU, as above), two updates of GRADIENT_STEPS each; the second
 #       update's seconds give gradient steps/s per run and in all (OUTDIR/probe.json)
 # Everything lives under /tmp/bidex-offline (runs, datasets, the registry); results go to OUTDIR
-# with the machine, date, commit ($BIDEX_COMMIT) and commands.
+# with the machine, date, commit ($BIDEX_COMMIT) and commands, and each stage's wall seconds in
+# OUTDIR/seconds.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 build=${BIDEX_GPU_BUILD:-build-gpu}
@@ -33,6 +34,11 @@ stage=${1:?stage: experts, datasets, offline or probe}
 shift
 SECONDS=0
 mkdir -p "$root/runs" "$root/datasets"
+
+machine() { nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null | head -1; }
+
+# done_in STAGE: the stage's wall seconds, printed and kept in $out/seconds.txt
+done_in() { echo "$1: ${SECONDS}s" | tee -a "$out/seconds.txt"; }
 
 # One offline run: learner on the GPU, its evaluation pack on the CPU, one CPU thread each for
 # the simulation and LibTorch; the command goes to $cmdlog when that is set.
@@ -71,7 +77,7 @@ experts)
     cp "$root/runs/$task-ppo/metrics.csv" "$out/ppo-$task-metrics.csv"
     cp "$root/runs/$task-ppo/learning_curve.svg" "$out/ppo-$task-curve.svg"
   done
-  echo "experts: ${SECONDS}s"
+  done_in experts
   ;;
 datasets)
   out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; steps=${3:?STEPS}; slots=${4:?SLOTS}
@@ -96,11 +102,9 @@ datasets)
   done
   wait
   cat "$out"/collect-*.txt
-  python3 - "$root/datasets" "$out/datasets.json" "${BIDEX_COMMIT:-unknown}" <<'PY'
-import json, sys, glob, os, datetime, subprocess
-root, path, commit = sys.argv[1:4]
-machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
-                         capture_output=True, text=True).stdout.strip()
+  python3 - "$root/datasets" "$out/datasets.json" "${BIDEX_COMMIT:-unknown}" "$(machine)" <<'PY'
+import json, sys, glob, os, datetime
+root, path, commit, machine = sys.argv[1:5]
 out = {"what": "the offline datasets: metadata.json of each (checksum, sizes, references)",
        "machine": machine, "commit": commit,
        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
@@ -111,7 +115,7 @@ for m in sorted(glob.glob(f"{root}/*/*/data/metadata.json")):
     out["datasets"].append(d)
 json.dump(out, open(path, "w"), indent=2)
 PY
-  echo "datasets: ${SECONDS}s"
+  done_in datasets
   ;;
 offline)
   out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; algos=${3:?ALGOS}
@@ -143,7 +147,7 @@ offline)
     tail -3 "$out/runs/$name.txt"' <"$jobs"
   python3 bench/offline_table.py "$reg" "$out" "${BIDEX_COMMIT:-unknown}"
   cp "$reg" "$out/registry.sqlite"
-  echo "offline: ${SECONDS}s"
+  done_in offline
   ;;
 probe)
   out=$(realpath -m "${1:?OUTDIR}"); task=${2:?TASK}; algos=${3:?ALGOS}; gsteps=${4:?GRADIENT_STEPS}
@@ -169,9 +173,9 @@ probe)
       done
     done
   done
-  python3 - "$out" "$gsteps" "${BIDEX_COMMIT:-unknown}" "${*:2}" <<'PY'
-import collections, datetime, json, subprocess, sys
-out, g, commit, args = sys.argv[1], int(sys.argv[2]), sys.argv[3], sys.argv[4]
+  python3 - "$out" "$gsteps" "${BIDEX_COMMIT:-unknown}" "${*:2}" "$(machine)" <<'PY'
+import collections, datetime, json, sys
+out, g, commit, args, machine = sys.argv[1], int(sys.argv[2]), *sys.argv[3:6]
 runs = collections.defaultdict(list)
 failed = collections.Counter()
 for line in open(f"{out}/probe.csv"):
@@ -187,8 +191,6 @@ rows = [{"algo": a, "parallel": p, "finished": len(s), "failed": failed[(a, p)],
 for r in rows:
     print(f"{r['algo']} x{r['parallel']}: {r['steps_per_s_per_run']:.0f} gradient steps/s a run, "
           f"{r['steps_per_s_in_all']:.0f} in all ({r['failed']} failed)")
-machine = subprocess.run(["nvidia-smi", "--query-gpu=name", "--format=csv,noheader"],
-                         capture_output=True, text=True).stdout.strip()
 json.dump({"what": "offline learners sharing one GPU: gradient steps/s of the second update "
            "(its gradient steps and one evaluation) per run and in all",
            "machine": machine, "commit": commit,
@@ -196,7 +198,7 @@ json.dump({"what": "offline learners sharing one GPU: gradient steps/s of the se
            "command": f"bench/gpu_offline_run.sh probe OUTDIR {args}", "results": rows},
           open(f"{out}/probe.json", "w"), indent=2)
 PY
-  echo "probe: ${SECONDS}s"
+  done_in probe
   ;;
 *)
   echo "unknown stage $stage (experts, datasets, offline, probe)" >&2
