@@ -21,6 +21,11 @@
 #       the wall time and slot-steps at which the mean training return first reached TARGET;
 #       TASK may name a suite (MT1, MT4, MT20); results go to OUTDIR/TASK-ALGO (ALGO default ppo;
 #       with --agents other than hand, OUTDIR/TASK-ALGO-AGENTS)
+#   bench/gpu_learn_run.sh reference OUTDIR TASKS SLOTS SECONDS EPISODES [-o key=value ...]
+#       single-task PPO ground-truth references: trains every task of TASKS at once, each for
+#       SECONDS at SLOTS slots with the task's default configuration, then evaluates each final
+#       policy (its mean action, EPISODES episodes on the CPU); OUTDIR/references.json holds
+#       per task the slot-steps, the last training returns and the evaluation
 #   bench/gpu_learn_run.sh meta OUTDIR SUITE ALGO SLOTS SECONDS EPISODES [-o key=value ...]
 #       meta-trains ALGO (maml, promp, rl2) on SUITE's train split for SECONDS, then evaluates the
 #       run on both splits (bidex eval --split train|test, EPISODES slots per task, on the CPU)
@@ -32,7 +37,7 @@ cd "$(dirname "$0")/.."
 build=${BIDEX_GPU_BUILD:-build-gpu}
 bidex="$build/apps/bidex"
 runs=/tmp/bidex-gpu-runs
-stage=${1:?stage: build, physics, pack, profile, collect, train or meta}
+stage=${1:?stage: build, physics, pack, profile, collect, train, reference or meta}
 shift
 SECONDS=0
 
@@ -231,6 +236,57 @@ print(json.dumps(out, indent=1))
 PY
   echo "train: ${SECONDS}s"
   ;;
+reference)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; slots=${3:?SLOTS}; budget=${4:?SECONDS}
+  episodes=${5:?EPISODES}
+  shift 5
+  mkdir -p "$out" "$runs"
+  for task in ${tasks//,/ }; do
+    mkdir -p "$out/$task"
+    args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$runs/ref-$task-$slots"
+          --no-registry --time-limit "$budget" "$@")
+    echo "bidex ${args[*]}" >"$out/$task/commands.txt"
+    "$bidex" "${args[@]}" >"$out/$task/train.txt" 2>"$out/$task/progress.log" &
+  done
+  wait  # a run stopped by --time-limit exits 130
+  for task in ${tasks//,/ }; do
+    run="$runs/ref-$task-$slots"
+    cp "$run"/{config.yaml,run.json,metrics.csv,learning_curve.svg} "$out/$task/" 2>/dev/null
+    args=(eval --run "$run" --episodes "$episodes" --seed 2026 --threads 4
+          --json "$out/$task/eval.json")
+    echo "bidex ${args[*]}" >>"$out/$task/commands.txt"
+    "$bidex" "${args[@]}" >"$out/$task/eval.txt" 2>&1 &
+  done
+  wait
+  python3 - "$out" "$tasks" "$(machine)" "${BIDEX_COMMIT:-unknown}" <<'PY'
+import csv, json, os, sys, datetime
+out, tasks, machine, commit = sys.argv[1], sys.argv[2].split(","), sys.argv[3], sys.argv[4]
+d = {"what": "single-task PPO on the GPU path (all tasks trained at once on one GPU), then "
+             "each final policy's mean action evaluated on the CPU: ground-truth references",
+     "machine": machine, "commit": commit,
+     "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+     "tasks": {}}
+for t in tasks:
+  f = f"{out}/{t}"
+  rows = [r for r in csv.DictReader(open(f"{f}/metrics.csv")) if r["return"] != ""] \
+      if os.path.exists(f"{f}/metrics.csv") else []
+  ev = json.load(open(f"{f}/eval.json")) if os.path.exists(f"{f}/eval.json") else None
+  last = rows[-10:]
+  d["tasks"][t] = {
+    "commands": open(f"{f}/commands.txt").read().splitlines(),
+    "slot_steps": int(float(rows[-1]["steps"])) if rows else 0,
+    "wall_s": float(rows[-1]["wall_s"]) if rows else 0,
+    "train_return_last_10_updates": sum(float(r["return"]) for r in last) / len(last) if last else None,
+    "eval_return": ev["mean_return"] if ev else None,
+    "eval_std": ev["std_return"] if ev else None,
+    "eval_success": ev["success_rate"] if ev else None,
+    "eval_episodes": ev["episodes"] if ev else 0,
+    "eval_faults": ev["faults"] if ev else None}
+  print(t, json.dumps(d["tasks"][t]))
+json.dump(d, open(f"{out}/references.json", "w"), indent=2)
+PY
+  echo "reference: ${SECONDS}s"
+  ;;
 meta)
   out=$(realpath -m "${1:?OUTDIR}"); suite=${2:?SUITE}; algo=${3:?ALGO}; slots=${4:?SLOTS}
   budget=${5:?SECONDS}; episodes=${6:?EPISODES}
@@ -254,7 +310,7 @@ meta)
   echo "meta: ${SECONDS}s"
   ;;
 *)
-  echo "unknown stage $stage (build, physics, pack, profile, collect, train or meta)" >&2
+  echo "unknown stage $stage (build, physics, pack, profile, collect, train, reference or meta)" >&2
   exit 2
   ;;
 esac
