@@ -25,7 +25,8 @@
 #       single-task PPO ground-truth references: trains every task of TASKS at once, each for
 #       SECONDS at SLOTS slots with the task's default configuration, then evaluates each final
 #       policy (its mean action, EPISODES episodes on the CPU); OUTDIR/references.json holds
-#       per task the slot-steps, the last training returns and the evaluation
+#       per task the slot-steps, the last training returns and the evaluation; a second call
+#       with the same TASKS and SLOTS resumes the runs for SECONDS more
 #   bench/gpu_learn_run.sh meta OUTDIR SUITE ALGO SLOTS SECONDS EPISODES [-o key=value ...]
 #       meta-trains ALGO (maml, promp, rl2) on SUITE's train split for SECONDS, then evaluates the
 #       run on both splits (bidex eval --split train|test, EPISODES slots per task, on the CPU)
@@ -243,10 +244,15 @@ reference)
   mkdir -p "$out" "$runs"
   for task in ${tasks//,/ }; do
     mkdir -p "$out/$task"
-    args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$runs/ref-$task-$slots"
-          --no-registry --time-limit "$budget" "$@")
-    echo "bidex ${args[*]}" >"$out/$task/commands.txt"
-    "$bidex" "${args[@]}" >"$out/$task/train.txt" 2>"$out/$task/progress.log" &
+    run="$runs/ref-$task-$slots"
+    if [[ -f "$run/config.yaml" ]]; then  # an earlier call's run: SECONDS more
+      args=(train --resume "$run" --device cuda --no-registry --time-limit "$budget")
+    else
+      args=(train --task "$task" --device cuda -o env.slots="$slots" --run "$run" --no-registry
+            --time-limit "$budget" "$@")
+    fi
+    echo "bidex ${args[*]}" >>"$out/$task/commands.txt"
+    "$bidex" "${args[@]}" >>"$out/$task/train.txt" 2>>"$out/$task/progress.log" &
   done
   wait  # a run stopped by --time-limit exits 130
   for task in ${tasks//,/ }; do
