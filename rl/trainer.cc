@@ -374,6 +374,29 @@ void write_profile(const Session& s, const StepTimes& t) {
   write_file_atomic(s.dir + "/profile.json", j.dump(2) + "\n");
 }
 
+// An update whose metrics are not all finite has stepped the learner's parameters with a
+// non-finite loss or gradient: the run stops there without saving them, so its checkpoints keep
+// the last finite state. Returns the message (empty when every metric is finite).
+std::string non_finite_metric(const Session& s, const Algorithm& algo,
+                              const std::vector<double>& metrics) {
+  const std::vector<std::string>& names = algo.metric_names();
+  for (size_t k = 0; k < metrics.size(); ++k) {
+    if (std::isfinite(metrics[k])) continue;
+    const std::string name = k < names.size() ? names[k] : "#" + std::to_string(k);
+    const std::string keep =
+        s.last_checkpoint.empty()
+            ? "no checkpoint was written before it; start the run again (a lower learning rate "
+              "or a smaller gradient clip may help)"
+            : "the newest checkpoint, " + s.last_checkpoint +
+                  ", holds the last finite state: bidex train --resume " + s.dir +
+                  " goes on from it";
+    return "train " + s.dir + ": update " + std::to_string(s.update + 1) +
+           " diverged: its metric " + name + " is " + fmt("%g", metrics[k]) +
+           " (expected a finite number); the parameters it stepped are not saved, and " + keep;
+  }
+  return "";
+}
+
 TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   SignalScope signals;
   auto& env = *s.env;
@@ -404,6 +427,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   torch::Tensor obs = collector.reset();
   if (recorder) recorder->begin(obs);
   bool stopped = false, first = true;
+  std::string diverged;  // why the last update's learner state is not finite (then not saved)
   const double session_start = monotonic_seconds();
   StepTimes times;
   if (opt.profile) env.set_profile(true);
@@ -432,6 +456,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     }
     const double t_update = monotonic_seconds();
     const std::vector<double> algo_metrics = algo.update(obs);
+    diverged = non_finite_metric(s, algo, algo_metrics);
+    if (!diverged.empty()) break;
     if (opt.profile) {
       if (s.device.is_cuda()) torch::cuda::synchronize(s.device.index());
       times.add(t_update - t_iter, sim_s, monotonic_seconds() - t_update, batch);
@@ -495,6 +521,10 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   }
   if (bar) bar->finish();
   if (recorder) recorder->finish();  // an interrupted run keeps the episodes it recorded
+  if (!diverged.empty()) {
+    log.plot(title);
+    throw Error(diverged);
+  }
   if (list_checkpoints(s.dir).empty() || s.last_checkpoint != checkpoint_path(s.dir, s.update))
     s.save();
   log.plot(title);

@@ -194,6 +194,56 @@ TEST_CASE("truncated, corrupted and foreign checkpoints are clear errors", "[rl]
   }
 }
 
+namespace {
+// `in` copied into `out` with every floating-point tensor, at any depth, filled with NaN.
+void copy_as_nan(torch::serialize::InputArchive& in, torch::serialize::OutputArchive& out) {
+  for (const std::string& key : in.keys()) {
+    torch::Tensor t;
+    torch::serialize::InputArchive sub;
+    if (in.try_read(key, t)) {
+      out.write(key, t.is_floating_point() ? torch::full_like(t, NAN) : t);
+    } else if (in.try_read(key, sub)) {
+      torch::serialize::OutputArchive o;
+      copy_as_nan(sub, o);
+      out.write(key, o);
+    } else {
+      c10::IValue v;
+      REQUIRE(in.try_read(key, v));
+      out.write(key, v);
+    }
+  }
+}
+}  // namespace
+
+TEST_CASE("an update that leaves the learner non-finite stops the run without saving it",
+          "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("run");
+  auto o = test::quiet();
+  o.stop_after_updates = 1;
+  rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), dir, o);
+  // the newest checkpoint's networks and optimiser state made NaN, as a diverged update leaves
+  // them: the next update's losses are NaN
+  const std::string ck = rl::list_checkpoints(dir).back();
+  {
+    torch::serialize::InputArchive in;
+    const rl::CheckpointMeta m = rl::load_checkpoint(ck, in, torch::kCPU);
+    torch::serialize::OutputArchive out;
+    copy_as_nan(in, out);
+    rl::save_checkpoint(ck, m, out);
+  }
+  const std::string bytes = read_file(ck), metrics = read_file(dir + "/metrics.csv");
+  const std::string msg = error_of([&] { rl::train_resume(dir, test::quiet()); });
+  CHECK(msg.find("train " + dir + ": update 2 diverged: its metric ") != std::string::npos);
+  CHECK(msg.find(" is nan (expected a finite number)") != std::string::npos);
+  CHECK(msg.find("the newest checkpoint, " + ck) != std::string::npos);
+  CHECK(msg.find("bidex train --resume " + dir) != std::string::npos);
+  // nothing of the diverged update is kept: no checkpoint, no metrics row
+  CHECK(rl::list_checkpoints(dir) == std::vector<std::string>{ck});
+  CHECK(read_file(ck) == bytes);
+  CHECK(read_file(dir + "/metrics.csv") == metrics);
+}
+
 TEST_CASE("a loaded policy evaluates: returns, success and lengths of whole episodes",
           "[rl][train]") {
   test::TaskTempDir tmp;
