@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <set>
 #include <thread>
 
 #include <sys/stat.h>
@@ -287,38 +288,74 @@ bool task_exists(sqlite3* db, const std::string& path, const std::string& id) {
 }
 
 // Reference scores of configs/registry/references.yaml (sections ground_truth and random, each
-// empty or {source, values: {task: value or {value, source}}}), inserted where absent.
+// empty or {source, replaces?, values: {task: value or {value, source}}}). The file owns the rows
+// whose source is one of its section's: the section's source, a value's own source, or one of
+// `replaces` (the sources of the section's earlier editions). A value is inserted where the
+// registry has none of that task and kind, and replaces a row the file owns; a row the file owns
+// whose task the section no longer lists is withdrawn. Rows of any other source (a user's,
+// `bidex registry reference`, `bidex eval --random --set-reference`) are never touched.
 void load_references(sqlite3* db, const std::string& path) {
   const std::string file = references_path();
   const YamlView root = YamlView::load_file(file);
   if (root.node().IsNull()) return;
   root.allow_keys({"ground_truth", "random"});
-  Stmt ins(db, path,
+  Stmt find(db, path, "SELECT source FROM reference_scores WHERE task = ?1 AND kind = ?2");
+  Stmt put(db, path,
            "INSERT INTO reference_scores (task, kind, value, source) VALUES (?1, ?2, ?3, ?4) "
-           "ON CONFLICT (task, kind) DO NOTHING");
+           "ON CONFLICT (task, kind) DO UPDATE SET value = excluded.value, "
+           "source = excluded.source");
   for (const char* kind : {"ground_truth", "random"}) {
     auto sec = root.maybe(kind);
     if (!sec || sec->node().IsNull()) continue;  // a section still to be measured
-    sec->allow_keys({"source", "values"});
+    sec->allow_keys({"source", "replaces", "values"});
     const std::string source = sec->req<std::string>("source");
-    const YamlView values = sec->child("values");
-    if (values.node().IsNull()) continue;
-    for (auto& task : values.keys()) {
-      const YamlView v = values.child(task);
-      if (!task_exists(db, path, task))
-        v.fail("a registered task id", sql::cat("unknown task ", in_quotes(task)));
-      double value = 0;
-      std::string src = source;
-      if (v.is_map()) {
-        v.allow_keys({"value", "source"});
-        value = v.req<double>("value");
-        src = v.opt<std::string>("source", source);
-      } else {
-        value = v.as<double>();
+    std::set<std::string> owned = {source};
+    if (auto r = sec->maybe("replaces"))
+      for (auto& old : r->as<std::vector<std::string>>()) owned.insert(old);
+    std::vector<std::pair<std::string, std::pair<double, std::string>>> rows;
+    if (auto values = sec->maybe("values"); values && !values->node().IsNull()) {
+      for (auto& task : values->keys()) {
+        const YamlView v = values->child(task);
+        if (!task_exists(db, path, task))
+          v.fail("a registered task id", sql::cat("unknown task ", in_quotes(task)));
+        double value = 0;
+        std::string src = source;
+        if (v.is_map()) {
+          v.allow_keys({"value", "source"});
+          value = v.req<double>("value");
+          src = v.opt<std::string>("source", source);
+        } else {
+          value = v.as<double>();
+        }
+        owned.insert(src);
+        rows.push_back({task, {value, src}});
       }
-      ins.bind(1, task).bind(2, kind).bind(3, value).bind(4, src);
-      ins.run();
-      ins.reset();
+    }
+    std::set<std::string> listed;
+    for (auto& [task, vs] : rows) {
+      listed.insert(task);
+      find.bind(1, task).bind(2, kind);
+      const bool present = find.step();
+      const bool ours = present && owned.count(find.text(0)) > 0;
+      find.reset();
+      if (present && !ours) continue;  // someone else's reference
+      put.bind(1, task).bind(2, kind).bind(3, vs.first).bind(4, vs.second);
+      put.run();
+      put.reset();
+    }
+    // withdrawn: rows the file made whose task it no longer lists
+    std::vector<std::string> gone;
+    {
+      Stmt all(db, path, "SELECT task, source FROM reference_scores WHERE kind = ?1");
+      all.bind(1, kind);
+      while (all.step())
+        if (owned.count(all.text(1)) && !listed.count(all.text(0))) gone.push_back(all.text(0));
+    }
+    Stmt del(db, path, "DELETE FROM reference_scores WHERE task = ?1 AND kind = ?2");
+    for (auto& task : gone) {
+      del.bind(1, task).bind(2, kind);
+      del.run();
+      del.reset();
     }
   }
 }

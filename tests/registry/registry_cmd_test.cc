@@ -238,10 +238,10 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   int64_t suite_run = 0;
   {
     Registry reg(path);
-    // random scores for four of the nine tasks with a ground truth
+    // random scores for four of the eight tasks with a ground truth
     reg.set_reference({"hand_over", "random", 2.0, "test"});            // ground truth 30.8
-    reg.set_reference({"door_open_inward", "random", 67, "test"});      // 467
-    reg.set_reference({"door_close_outward", "random", 38, "test"});    // 1038
+    reg.set_reference({"catch_abreast", "random", 3.4, "test"});        // 43.4
+    reg.set_reference({"scissors", "random", 1.835, "test"});           // 381.835
     reg.set_reference({"two_catch_underarm", "random", 0.1, "test"});   // 14.1
     auto task_run = [&](const std::string& task, double ret) {
       registry::RunRecord r;
@@ -253,8 +253,8 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     };
     task_run("two_catch_underarm", 14.1);  // 1
     task_run("hand_over", 16.4);           // 0.5
-    task_run("door_open_inward", 167);     // 0.25
-    task_run("door_close_outward", 788);   // 0.75
+    task_run("catch_abreast", 13.4);       // 0.25
+    task_run("scissors", 286.835);         // 0.75
     task_run("catch_underarm", 10);        // no random score
     task_run("pen", 5);                    // no reference at all
     registry::RunRecord s;
@@ -274,14 +274,15 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
                         "normalised"}));
   // task, age, difficulty, run, return, random, ground truth, normalised (by hand)
   CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "7", "30.8", "2", "30.8", "1.000"}));
-  CHECK(has_row(r.out, {"door_open_inward", "13", "easy", "3", "167", "67", "467", "0.250"}));
-  CHECK(has_row(r.out, {"door_close_outward", "13", "easy", "4", "788", "38", "1038", "0.750"}));
+  CHECK(has_row(r.out, {"catch_abreast", "9-10", "easy", "3", "13.4", "3.4", "43.4", "0.250"}));
+  CHECK(has_row(r.out, {"scissors", "7", "easy", "4", "286.8", "1.835", "381.8", "0.750"}));
   CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "7", "7.1", "0.1", "14.1",
                         "0.500"}));
   CHECK(has_row(r.out, {"catch_underarm", "48", "hard", "7", "3", "-", "17.8", "-"}));
   CHECK(has_row(r.out, {"pen", "7", "easy", "6", "5", "-", "-", "-"}));
-  CHECK(has_row(r.out, {"door_open_outward", "13", "easy", "-", "-", "-", "580", "-"}));
-  CHECK(has_text(r.out, "left out of the plot (no normalised score): push_block, pen, scissors"));
+  CHECK(has_row(r.out, {"door_open_outward", "13", "easy", "-", "-", "-", "198.2", "-"}));
+  CHECK(has_text(r.out, "left out of the plot (no normalised score): push_block, pen, "
+                        "catch_over2underarm"));
   CHECK(has_text(r.out, "plot (4 of 20 tasks)"));
   const std::string svg_file = dir.file("sub/age_report.svg");  // beside the registry
   REQUIRE(file_exists(svg_file));
@@ -297,11 +298,11 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     const size_t b = t + 15;
     labels.push_back(svg.substr(b, svg.find('<', b) - b));
   }
-  CHECK(labels == std::vector<std::string>{"hand_over", "door_close_outward", "door_open_inward",
+  CHECK(labels == std::vector<std::string>{"scissors", "catch_abreast", "hand_over",
                                            "two_catch_underarm"});
   REQUIRE(xs.size() == 4);
   CHECK(xs[0] < xs[1]);
-  CHECK(xs[1] == xs[2]);  // both doors at 13 months
+  CHECK(xs[1] == xs[2]);  // both at 9-10 months
   CHECK(xs[2] < xs[3]);
   CHECK(has_text(svg, "left out, no normalised score: push_block, pen"));
 
@@ -320,7 +321,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   CHECK(has_text(r.out, "scores of run 7 (mtppo, suite MT4)"));
   r = reg_run("report age --run 4 --out " + q(out), path);
   REQUIRE(r.rc == 0);
-  CHECK(has_text(r.out, "\ndoor_close_outward "));
+  CHECK(has_text(r.out, "\nscissors "));
   CHECK(has_text(r.out, "plot (1 of 1 tasks)"));
   // bad choices: exit 2
   CHECK(reg_run("report age --run 99", path).rc == 2);
