@@ -3,12 +3,17 @@
 (bench/gpu_learn_run.sh meta: SUITE-ALGO/eval-{train,test}.json) and the random policy's
 random-SUITE-{train,test}.json (bidex eval --random --suite S --split P --json), the mean return
 before and after adaptation per split, next to the seed paper's ProMP, random and single-task
-ground truth. Writes DIR/table.md and DIR/summary.json.
+ground truth, and the normalised score after adaptation per split: the mean over the tasks with
+both references in configs/registry/references.yaml (or $BIDEX_REFERENCES) of (return - random) /
+(ground truth - random), with how many of the split's tasks it covers. Writes DIR/table.md and
+DIR/summary.json.
 Usage: bench/meta_table.py DIR"""
 import csv
 import json
 import os
 import sys
+
+import yaml
 
 # the seed paper's meta-RL table: train / test mean returns
 ORIGINAL = {
@@ -31,19 +36,44 @@ def last_row(d, name):
     return rows and {"steps": int(float(rows[-1]["steps"])), "wall_s": float(rows[-1]["wall_s"])}
 
 
+def references():
+    """{task: (random, ground truth or None)} of the references file"""
+    path = os.environ.get("BIDEX_REFERENCES") or os.path.join(
+        os.path.dirname(os.path.abspath(__file__)), "..", "configs", "registry", "references.yaml")
+    doc = yaml.safe_load(open(path)) or {}
+    value = lambda v: v["value"] if isinstance(v, dict) else v
+    sec = lambda k: {t: value(v) for t, v in ((doc.get(k) or {}).get("values") or {}).items()}
+    rnd, gt = sec("random"), sec("ground_truth")
+    return {t: (r, gt.get(t)) for t, r in rnd.items()}, os.path.relpath(path)
+
+
+def normalised(ev, refs, key):
+    """(mean normalised score of an evaluation's entries with both references, count, entries)"""
+    if not ev:
+        return None, 0, 0
+    scores = []
+    for e in ev["per_task"]:
+        r, g = refs.get(e["task"], (None, None))
+        if r is not None and g is not None and g != r:
+            scores.append((e[key] - r) / (g - r))
+    return (sum(scores) / len(scores) if scores else None), len(scores), len(ev["per_task"])
+
+
 def main(d):
     suites = ["ML1", "ML4", "ML20"]
+    refs, refs_path = references()
     algos = sorted({n.split("-", 1)[1] for n in os.listdir(d)
                     if os.path.isdir(os.path.join(d, n)) and "-" in n})
-    rows, summary = [], {"what": __doc__.split("\n")[0], "original": ORIGINAL, "runs": []}
+    rows, summary = [], {"what": __doc__.split("\n")[0], "original": ORIGINAL, "runs": [],
+                         "references": refs_path}
     fmt = lambda v: "-" if v is None else f"{v:.3g}"
     for s in suites:
         rnd = {p: load(os.path.join(d, f"random-{s}-{p}.json")) for p in ("train", "test")}
         rows.append(f"| {s} | random (ours) | {fmt(rnd['train'] and rnd['train']['mean_return'])}"
-                    f" | {fmt(rnd['test'] and rnd['test']['mean_return'])} | | |")
+                    f" | {fmt(rnd['test'] and rnd['test']['mean_return'])} | | | | |")
         for k in ("random", "promp", "ground_truth"):
             tr, te = ORIGINAL[k][s]
-            rows.append(f"| {s} | {k} (original) | {tr} | {te} | | |")
+            rows.append(f"| {s} | {k} (original) | {tr} | {te} | | | | |")
         for a in algos:
             ev = {p: load(os.path.join(d, f"{s}-{a}", f"eval-{p}.json")) for p in ("train", "test")}
             run = load(os.path.join(d, f"{s}-{a}", "summary.json")) or last_row(d, f"{s}-{a}")
@@ -52,15 +82,21 @@ def main(d):
             after = {p: ev[p] and ev[p]["return_after"] for p in ev}
             before = {p: ev[p] and ev[p]["return_before"] for p in ev}
             steps = f"{run['steps'] / 1e6:.1f}M" if run else "-"
+            norm = {p: normalised(ev[p], refs, "return_after") for p in ev}
+            cell = lambda n: "-" if n[0] is None else f"{n[0]:.3f} ({n[1]} of {n[2]})"
             rows.append(f"| {s} | {a} (ours, {steps} slot-steps) | {fmt(after['train'])} | "
-                        f"{fmt(after['test'])} | {fmt(before['train'])} | {fmt(before['test'])} |")
+                        f"{fmt(after['test'])} | {fmt(before['train'])} | {fmt(before['test'])} | "
+                        f"{cell(norm['train'])} | {cell(norm['test'])} |")
             summary["runs"].append({
                 "suite": s, "algo": a,
                 "slot_steps": run and run["steps"], "wall_s": run and run["wall_s"],
                 "train": ev["train"], "test": ev["test"],
+                "normalised_after": {p: {"mean": norm[p][0], "tasks": norm[p][1],
+                                         "of": norm[p][2]} for p in norm},
                 "random": {p: rnd[p] and rnd[p]["mean_return"] for p in rnd}})
-    table = ["| suite | policy | train (after) | test (after) | train (before) | test (before) |",
-             "|---|---|---|---|---|---|"] + rows
+    table = ["| suite | policy | train (after) | test (after) | train (before) | test (before) "
+             "| train normalised (after) | test normalised (after) |",
+             "|---|---|---|---|---|---|---|---|"] + rows
     open(os.path.join(d, "table.md"), "w").write("\n".join(table) + "\n")
     json.dump(summary, open(os.path.join(d, "summary.json"), "w"), indent=2)
     print("\n".join(table))
