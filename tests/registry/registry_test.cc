@@ -38,7 +38,7 @@ const std::string kOriginal =
 const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"hand_over", 30.8},          {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
     {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_outward", 198.206},
-    {"lift_underarm", 1341.65},   {"scissors", 381.835}};
+    {"lift_underarm", 1341.65},   {"scissors", 381.835},         {"door_close_inward", 369.522}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
@@ -115,7 +115,7 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.task("grasp_and_place")->obs_dim == 425);
     CHECK_FALSE(reg.task("catch_underarm_raise"));  // variants are not registered
 
-    // the eight ground truths and the twenty measured random scores
+    // the nine ground truths and the twenty measured random scores
     const auto refs = reg.references();
     CHECK(refs.size() == kGroundTruth.size() + 20);
     for (auto& [task, value] : kGroundTruth) {
@@ -129,9 +129,10 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
         CHECK(r->source.rfind("bidex PPO on the GPU path, ", 0) == 0);
     }
     CHECK(reg.reference("scissors", "ground_truth")->source.find(
-              "gpu-references-h100/references.json") != std::string::npos);
+              "gpu-references-h100/references-ml20-test.json") != std::string::npos);
     CHECK_FALSE(reg.reference("pen", "ground_truth"));
     CHECK_FALSE(reg.reference("door_close_outward", "ground_truth"));
+    CHECK_FALSE(reg.reference("door_open_inward", "ground_truth"));
     // every paper task has a random score with its source (spot values from references.yaml)
     for (auto& t : reg.tasks(false)) {
       INFO(t.id);
@@ -171,7 +172,7 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
-  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "28");
+  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "29");
   CHECK(raw.value("SELECT count(*) FROM suites") ==
         std::to_string(taskpack::known_suites().size()));
   CHECK(raw.value("SELECT count(*) FROM suite_members WHERE suite = 'ML20'") == "20");
@@ -187,7 +188,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   }
   Registry reg(path);
   CHECK(reg.tasks(false).size() == 20);
-  CHECK(reg.references().size() == 28);
+  CHECK(reg.references().size() == 29);
   CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
   CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
   CHECK(reg.reference("hand_over", "random")->value == 0.5);
@@ -515,7 +516,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
     CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(30.8));
-    CHECK(reg.references().size() == 2 + 8 + 19);  // the shipped ground truths and 19 random
+    CHECK(reg.references().size() == 2 + 9 + 19);  // the shipped ground truths and 19 random
     // the new tables work, also for the old runs
     registry::RunRecord done = runs[1];
     done.status = "finished";
