@@ -375,8 +375,8 @@ void write_profile(const Session& s, const StepTimes& t) {
 }
 
 // An update whose metrics are not all finite has stepped the learner's parameters with a
-// non-finite loss or gradient: the run stops there without saving them, so its checkpoints keep
-// the last finite state. Returns the message (empty when every metric is finite).
+// non-finite loss or gradient: the run stops there without saving them, so its checkpoints stay
+// as they were. Returns the message (empty when every metric is finite).
 std::string non_finite_metric(const Session& s, const Algorithm& algo,
                               const std::vector<double>& metrics) {
   const std::vector<std::string>& names = algo.metric_names();
@@ -388,8 +388,7 @@ std::string non_finite_metric(const Session& s, const Algorithm& algo,
             ? "no checkpoint was written before it; start the run again (a lower learning rate "
               "or a smaller gradient clip may help)"
             : "the newest checkpoint, " + s.last_checkpoint +
-                  ", holds the last finite state: bidex train --resume " + s.dir +
-                  " goes on from it";
+                  ", is untouched: bidex train --resume " + s.dir + " goes on from it";
     return "train " + s.dir + ": update " + std::to_string(s.update + 1) +
            " diverged: its metric " + name + " is " + fmt("%g", metrics[k]) +
            " (expected a finite number); the parameters it stepped are not saved, and " + keep;
