@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
+#include <map>
 #include <set>
 #include <thread>
 
@@ -299,11 +300,11 @@ void load_references(sqlite3* db, const std::string& path) {
   const YamlView root = YamlView::load_file(file);
   if (root.node().IsNull()) return;
   root.allow_keys({"ground_truth", "random"});
-  Stmt find(db, path, "SELECT source FROM reference_scores WHERE task = ?1 AND kind = ?2");
   Stmt put(db, path,
            "INSERT INTO reference_scores (task, kind, value, source) VALUES (?1, ?2, ?3, ?4) "
            "ON CONFLICT (task, kind) DO UPDATE SET value = excluded.value, "
            "source = excluded.source");
+  Stmt del(db, path, "DELETE FROM reference_scores WHERE task = ?1 AND kind = ?2");
   for (const char* kind : {"ground_truth", "random"}) {
     auto sec = root.maybe(kind);
     if (!sec || sec->node().IsNull()) continue;  // a section still to be measured
@@ -312,7 +313,7 @@ void load_references(sqlite3* db, const std::string& path) {
     std::set<std::string> owned = {source};
     if (auto r = sec->maybe("replaces"))
       for (auto& old : r->as<std::vector<std::string>>()) owned.insert(old);
-    std::vector<std::pair<std::string, std::pair<double, std::string>>> rows;
+    std::map<std::string, std::pair<double, std::string>> listed;  // task -> value, source
     if (auto values = sec->maybe("values"); values && !values->node().IsNull()) {
       for (auto& task : values->keys()) {
         const YamlView v = values->child(task);
@@ -328,31 +329,25 @@ void load_references(sqlite3* db, const std::string& path) {
           value = v.as<double>();
         }
         owned.insert(src);
-        rows.push_back({task, {value, src}});
+        listed[task] = {value, src};
       }
     }
-    std::set<std::string> listed;
-    for (auto& [task, vs] : rows) {
-      listed.insert(task);
-      find.bind(1, task).bind(2, kind);
-      const bool present = find.step();
-      const bool ours = present && owned.count(find.text(0)) > 0;
-      find.reset();
-      if (present && !ours) continue;  // someone else's reference
+    // the registry's rows of this kind: task -> source
+    std::map<std::string, std::string> held;
+    {
+      Stmt all(db, path, "SELECT task, source FROM reference_scores WHERE kind = ?1");
+      all.bind(1, kind);
+      while (all.step()) held[all.text(0)] = all.text(1);
+    }
+    for (auto& [task, vs] : listed) {
+      const auto h = held.find(task);
+      if (h != held.end() && !owned.count(h->second)) continue;  // someone else's reference
       put.bind(1, task).bind(2, kind).bind(3, vs.first).bind(4, vs.second);
       put.run();
       put.reset();
     }
-    // withdrawn: rows the file made whose task it no longer lists
-    std::vector<std::string> gone;
-    {
-      Stmt all(db, path, "SELECT task, source FROM reference_scores WHERE kind = ?1");
-      all.bind(1, kind);
-      while (all.step())
-        if (owned.count(all.text(1)) && !listed.count(all.text(0))) gone.push_back(all.text(0));
-    }
-    Stmt del(db, path, "DELETE FROM reference_scores WHERE task = ?1 AND kind = ?2");
-    for (auto& task : gone) {
+    for (auto& [task, src] : held) {  // withdrawn: rows the file made for tasks it no longer lists
+      if (!owned.count(src) || listed.count(task)) continue;
       del.bind(1, task).bind(2, kind);
       del.run();
       del.reset();
