@@ -11,6 +11,7 @@
 #include "sim/hand_spec.h"
 #include "sim/physics.h"
 #include "sim/scene.h"
+#include "tasks/math.h"
 
 namespace bidex::tasks {
 
@@ -92,8 +93,10 @@ TaskSlot TaskEnv::slot(int s) {
 }
 
 namespace {
-void clip_obs(float* o, int n) {
-  for (int i = 0; i < n; ++i) o[i] = std::clamp(o[i], -TaskEnv::kObsClip, TaskEnv::kObsClip);
+// The observation row clipped; a non-finite value is set to 0 and faults the slot at its next
+// step (SlotState::nonfinite_obs).
+void clip_obs(float* o, int n, SlotState& st) {
+  if (!math::clip_finite(o, n, TaskEnv::kObsClip)) st.nonfinite_obs = true;
 }
 }  // namespace
 
@@ -142,7 +145,7 @@ void TaskEnv::reset() {
     TaskSlot t = slot(s);
     float* o = obs.data() + s * od;
     task_->observe(t, o);
-    clip_obs(o, obs_dim_);
+    clip_obs(o, obs_dim_, state_[s]);
     reward[s] = 0;
     terminated[s] = truncated[s] = success[s] = fault[s] = 0;
   }
@@ -152,15 +155,35 @@ void TaskEnv::post_step(int s) {
   const double t0 = profile_on_ ? now() : 0;
   SlotState& st = state_[s];
   TaskSlot t = slot(s);
-  const bool faulted = batch_->fault[s] != sim::kFaultNone;
+  // a slot the simulation faulted was reset by it; one whose reward or observation was not
+  // finite is faulted here (tasks/README.md, "Faults"), and its simulation is reset below
+  const bool sim_fault = batch_->fault[s] != sim::kFaultNone;
+  bool faulted = sim_fault || st.nonfinite_obs;
   double tv_[kMaxTerms] = {};
   bool term = false, trunc = false;
-  if (faulted) {
-    trunc = true;  // the episode is cut short; its last state is the simulation's reset state
-  } else {
+  if (!faulted) {
     st.progress += 1;
     term = task_->evaluate(t, tv_);
+    for (int k = 0; k < nterms_; ++k) faulted = faulted || !math::isfinite(tv_[k]);
+  }
+  float* fo = final_obs.data() + static_cast<size_t>(s) * obs_dim_;
+  if (!faulted) {
     trunc = !term && st.progress >= episode_length_;
+    if (term || trunc) {
+      task_->observe(t, fo);
+      faulted = !math::clip_finite(fo, obs_dim_, kObsClip);
+    }
+  }
+  if (faulted) {
+    term = false;
+    trunc = true;  // the episode is cut short
+    std::fill_n(tv_, nterms_, 0.0);
+    if (sim_fault) {  // its last state is the simulation's reset state
+      task_->observe(t, fo);
+      math::clip_finite(fo, obs_dim_, kObsClip);
+    } else {
+      std::fill_n(fo, obs_dim_, 0.0f);
+    }
   }
   double r = 0;
   float* trow = terms.data() + static_cast<size_t>(s) * nterms_;
@@ -178,17 +201,14 @@ void TaskEnv::post_step(int s) {
   fault[s] = faulted;
   float* o = obs.data() + static_cast<size_t>(s) * obs_dim_;
   if (term || trunc) {
-    float* fo = final_obs.data() + static_cast<size_t>(s) * obs_dim_;
-    task_->observe(t, fo);
-    clip_obs(fo, obs_dim_);
     done_return_[s] = ep_return_[s];
     done_length_[s] = st.progress;
     std::copy_n(erow, nterms_, done_terms_.data() + static_cast<size_t>(s) * nterms_);
-    if (!faulted) sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
+    if (!sim_fault) sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
     start_episode(s);
   }
   task_->observe(t, o);
-  clip_obs(o, obs_dim_);
+  clip_obs(o, obs_dim_, st);
   if (profile_on_) thread_times_[omp_get_thread_num() * kPad + 1] += now() - t0;
 }
 

@@ -31,7 +31,8 @@ struct EpisodeStats {
   int64_t successes = 0;
   int64_t terminated = 0;     // ended by the task (drop, drift, ...)
   int64_t truncated = 0;      // ended by the time limit or a fault
-  int64_t faults = 0;         // slots reset by the simulation (non-finite, exploded, ...)
+  int64_t faults = 0;         // slots reset by a fault (non-finite or exploded simulation,
+                              // a non-finite reward or observation, ...)
   double return_sum = 0;
   double length_sum = 0;
   std::vector<double> term_sums;  // per reward term: sum over episodes of the term's return
@@ -112,7 +113,8 @@ class TaskEnv {
   std::vector<uint8_t> terminated; // the task ended the episode
   std::vector<uint8_t> truncated;  // the time limit (or a fault) ended it
   std::vector<uint8_t> success;    // the episode's success flag as of this step
-  std::vector<uint8_t> fault;      // the simulation reset this slot (see SimBatch::fault)
+  std::vector<uint8_t> fault;      // the slot faulted: the simulation reset it (SimBatch::fault),
+                                   // or its reward or observation was not finite
 
   EpisodeStats take_stats();
   void set_profile(bool on);

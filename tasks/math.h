@@ -50,6 +50,26 @@ template <class T>
 BIDEX_HD inline T clamp(T v, T lo, T hi) {
   return v < lo ? lo : hi < v ? hi : v;
 }
+// x - x is 0 for a finite x and NaN for an infinite or NaN one (no library call on either side)
+template <class T>
+BIDEX_HD inline bool isfinite(T x) {
+  return x - x == T(0);
+}
+
+// An observation row clipped to [-c, c] in place, a non-finite value set to 0; false when a value
+// was not finite (the task stages then fault the world: tasks/README.md, "Faults").
+BIDEX_HD inline bool clip_finite(float* o, int n, float c) {
+  bool finite = true;
+  for (int i = 0; i < n; ++i) {
+    if (!isfinite(o[i])) {
+      finite = false;
+      o[i] = 0.0f;
+    } else {
+      o[i] = clamp(o[i], -c, c);
+    }
+  }
+  return finite;
+}
 
 // ---- vectors and quaternions --------------------------------------------------------------
 

@@ -27,6 +27,8 @@ struct SlotState {
   int progress = 0;          // control steps since the reset
   bool success = false;      // the success condition held at some step of this episode
   bool bonus_paid = false;   // the one-off goal bonus of this episode was paid
+  bool nonfinite_obs = false;  // the last observation had a non-finite value (set to 0): the
+                               // next step faults the world instead of evaluating it
   // goal poses: position (3) then orientation (w, x, y, z)
   std::array<std::array<double, 7>, kMaxGoals> goal{};
   // this step's actions, clipped to [-1, 1] (zeros right after a reset)

@@ -10,6 +10,7 @@
 #include "core/hd.h"
 #include "core/rng.h"
 #include "sim/state_view.h"
+#include "tasks/math.h"
 #include "tasks/slot_state.h"
 
 namespace bidex::tasks {
@@ -66,10 +67,6 @@ BIDEX_HD inline sim::ResetRows<float> world_reset_rows(const WorldArrays& a, int
   return r;
 }
 
-BIDEX_HD inline void clip_row(float* o, int n, float c) {
-  for (int i = 0; i < n; ++i) o[i] = o[i] < -c ? -c : (o[i] > c ? c : o[i]);
-}
-
 // 1. actions, clipped to [-1, 1] and kept for the observation, -> ctrl and base_wrench rows
 template <class B>
 BIDEX_HD void world_apply(const typename B::Program& p, const WorldArrays& a, int w) {
@@ -84,21 +81,35 @@ BIDEX_HD void world_apply(const typename B::Program& p, const WorldArrays& a, in
 }
 
 // 3. after physics: reward terms, termination, time limit; a finished episode's record and
-// final observation; marks the world for the reset pass. A world the physics faulted ends its
-// episode (truncated) with zero reward and a zero final observation (its state is not finite).
+// final observation; marks the world for the reset pass. A faulted world ends its episode
+// (truncated) with zero reward and a zero final observation: one the physics faulted (its state
+// is not finite), one whose last observation had a non-finite value, or one whose reward terms
+// or final observation are not finite now (tasks/README.md, "Faults").
 template <class B>
 BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a, int w) {
   SlotState& st = a.state[w];
-  const bool faulted = a.fault[w] != 0;
+  bool faulted = a.fault[w] != 0 || st.nonfinite_obs;
   float tv[kMaxTerms] = {};
   bool term = false, trunc = false;
   const sim::WorldRows<float> rows = world_rows(a, w);
-  if (faulted) {
-    trunc = true;
-  } else {
+  if (!faulted) {
     st.progress += 1;
     term = B::evaluate(p, rows, st, a.rng[w], tv);
+    for (int k = 0; k < a.nterms; ++k) faulted = faulted || !math::isfinite(tv[k]);
+  }
+  float* fo = a.final_obs + static_cast<int64_t>(w) * a.obs_dim;
+  if (!faulted) {
     trunc = !term && st.progress >= a.episode_length;
+    if (term || trunc) {
+      B::observe(p, rows, st, fo);
+      faulted = !math::clip_finite(fo, a.obs_dim, a.obs_clip);
+    }
+  }
+  if (faulted) {
+    term = false;
+    trunc = true;
+    for (int k = 0; k < a.nterms; ++k) tv[k] = 0.0f;
+    for (int i = 0; i < a.obs_dim; ++i) fo[i] = 0.0f;
   }
   double r = 0;
   float* trow = a.terms + static_cast<int64_t>(w) * a.nterms;
@@ -115,13 +126,6 @@ BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a,
   a.success[w] = st.success;
   a.faulted[w] = faulted;
   if (term || trunc) {
-    float* fo = a.final_obs + static_cast<int64_t>(w) * a.obs_dim;
-    if (faulted) {
-      for (int i = 0; i < a.obs_dim; ++i) fo[i] = 0.0f;
-    } else {
-      B::observe(p, rows, st, fo);
-      clip_row(fo, a.obs_dim, a.obs_clip);
-    }
     a.done_return[w] += a.ep_return[w];
     a.done_length[w] += st.progress;
     double* drow = a.done_terms + static_cast<int64_t>(w) * a.nterms;
@@ -149,12 +153,14 @@ BIDEX_HD void world_reset(const typename B::Program& p, const WorldArrays& a, in
   B::reset(p, world_reset_rows(a, w), st, rng);
 }
 
-// 5. the observation row, clipped
+// 5. the observation row, clipped; a non-finite value is set to 0 and faults the world at the
+// next step
 template <class B>
 BIDEX_HD void world_observe(const typename B::Program& p, const WorldArrays& a, int w) {
   float* o = a.obs + static_cast<int64_t>(w) * a.obs_dim;
-  B::observe(p, world_rows(a, w), a.state[w], o);
-  clip_row(o, a.obs_dim, a.obs_clip);
+  SlotState& st = a.state[w];
+  B::observe(p, world_rows(a, w), st, o);
+  if (!math::clip_finite(o, a.obs_dim, a.obs_clip)) st.nonfinite_obs = true;
 }
 
 // The four stages by name, so that a runner writes its loop or kernel once for all of them.

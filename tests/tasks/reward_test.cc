@@ -493,3 +493,94 @@ TEST_CASE("a NaN action faults only its slot which is truncated and counted",
   CHECK(st.episodes == 1);
   CHECK(env->batch().total_faults() == 1);
 }
+
+namespace {
+
+// catch_underarm, whose slot 1 reports a NaN reward term at its third step of every episode.
+class NanRewardTask : public tasks::Task {
+ public:
+  explicit NanRewardTask(std::unique_ptr<tasks::Task> inner)
+      : Task(inner->spec(), inner->config_file()), inner_(std::move(inner)) {}
+  int episode_length() const override { return inner_->episode_length(); }
+  sim::SceneBuilder scene(const sim::HandSpec& hand, const sim::PhysicsOptions& p) const override {
+    return inner_->scene(hand, p);
+  }
+  void bind(const sim::SimModel& m) override { inner_->bind(m); }
+  void reset(tasks::TaskSlot& t) const override { inner_->reset(t); }
+  void apply_actions(const float* a, tasks::TaskSlot& t) const override {
+    inner_->apply_actions(a, t);
+  }
+  bool evaluate(tasks::TaskSlot& t, double* terms) const override {
+    const bool end = inner_->evaluate(t, terms);
+    if (t.index == 1 && t.task->progress == 3) terms[0] = std::nan("");
+    return end;
+  }
+  void observe(const tasks::TaskSlot& t, float* o) const override { inner_->observe(t, o); }
+
+ private:
+  std::unique_ptr<tasks::Task> inner_;
+};
+
+bool all_finite(const std::vector<float>& v) {
+  for (float x : v)
+    if (!std::isfinite(x)) return false;
+  return true;
+}
+
+}  // namespace
+
+TEST_CASE("a non-finite reward faults only its slot, which is truncated, reset and counted",
+          "[tasks][env][faults]") {
+  tasks::EnvOptions o;
+  o.nslot = 3;
+  o.seed = 14;
+  tasks::TaskEnv env(std::make_unique<NanRewardTask>(tasks::make_task("catch_underarm", "")), o);
+  std::vector<float> a(static_cast<size_t>(3 * env.act_dim()), 0.0f);
+  env.step(a);
+  env.step(a);
+  env.take_stats();
+  env.step(a);  // slot 1's third step
+  CHECK(env.fault == std::vector<uint8_t>{0, 1, 0});
+  CHECK(env.truncated[1] == 1);
+  CHECK(env.terminated[1] == 0);
+  CHECK(env.reward[1] == 0.0f);
+  CHECK(env.reward[0] != 0.0f);  // the others are rewarded as ever
+  CHECK(all_finite(env.reward));
+  CHECK(all_finite(env.terms));
+  CHECK(all_finite(env.obs));
+  for (int k = 0; k < env.obs_dim(); ++k) CHECK(env.final_obs[env.obs_dim() + k] == 0.0f);
+  CHECK(env.slot_state(1).progress == 0);  // a new episode
+  const auto st = env.take_stats();
+  CHECK(st.faults == 1);
+  CHECK(st.episodes == 1);
+  CHECK(st.truncated == 1);
+  CHECK(std::isfinite(st.return_sum));
+  CHECK(env.batch().total_faults() == 0);  // the simulation itself never faulted
+  env.step(a);
+  CHECK(env.fault == std::vector<uint8_t>{0, 0, 0});
+}
+
+TEST_CASE("a non-finite observation is cleared and faults its slot at the next step",
+          "[tasks][env][faults]") {
+  // slot 2's goal a finite 1e39 m away (double), beyond float: its observed goal is infinite
+  auto env = make_env("catch_underarm", 3, 15);
+  env->set_goal_shifts({2}, {1e39, 0, 0});
+  env->reset();
+  CHECK(all_finite(env->obs));
+  CHECK(env->slot_state(2).nonfinite_obs);
+  CHECK_FALSE(env->slot_state(0).nonfinite_obs);
+  std::vector<float> a(static_cast<size_t>(3 * env->act_dim()), 0.0f);
+  for (int i = 0; i < 4; ++i) {
+    env->step(a);
+    // every step ends slot 2's episode (its goal stays out of range) and no other
+    CHECK(env->fault == std::vector<uint8_t>{0, 0, 1});
+    CHECK(env->truncated[2] == 1);
+    CHECK(env->reward[2] == 0.0f);
+    CHECK(all_finite(env->obs));
+    CHECK(all_finite(env->final_obs));
+  }
+  const auto st = env->take_stats();
+  CHECK(st.faults == 4);
+  CHECK(st.episodes == 4);
+  CHECK(env->batch().total_faults() == 0);
+}

@@ -140,6 +140,33 @@ TEST_CASE("WarpTaskEnv ends a faulted world's episode, resets it alone, keeps st
   CHECK(st.faults == 1);
 }
 
+TEST_CASE("WarpTaskEnv faults a world whose observation is not finite, as TaskEnv does",
+          "[warp][faults]") {
+  // world 1's goal a finite 1e39 m away: past float, so its observed goal is infinite on both
+  // paths; the row is cleared and the world faults at every next step, the others never
+  TaskEnv cpu(make_task("catch_underarm", ""), cpu_env(3, 6));
+  WarpTaskEnv gpu(make_task("catch_underarm", ""), cpu_warp(3, 6));
+  cpu.set_goal_shifts({1}, {1e39, 0, 0});
+  gpu.set_goal_shifts({1}, {1e39, 0, 0});
+  cpu.reset();
+  gpu.reset();
+  std::vector<float> zero(3 * gpu.act_dim(), 0.0f);
+  for (int t = 0; t < 3; ++t) {
+    cpu.step(zero);
+    gpu.step(zero);
+    CHECK(gpu.download<uint8_t>("faulted") == std::vector<uint8_t>{0, 1, 0});
+    CHECK(cpu.fault == std::vector<uint8_t>{0, 1, 0});
+    CHECK(gpu.download<float>("reward")[1] == 0.0f);
+    for (const char* name : {"obs", "final_obs", "reward", "terms"})
+      for (float x : gpu.download<float>(name)) CHECK(std::isfinite(x));
+  }
+  const EpisodeStats sc = cpu.take_stats(), sg = gpu.take_stats();
+  CHECK(sg.faults == 3);
+  CHECK(sc.faults == 3);
+  CHECK(sg.episodes == 3);
+  CHECK(gpu.backend().total_faults() == 0);  // the physics never faulted
+}
+
 TEST_CASE("WarpTaskEnv runs every registered task", "[warp]") {
   std::vector<std::string> ids;
   for (const auto* reg : {&task_registry(), &variant_registry()})
