@@ -20,6 +20,12 @@ FAULT_BAD_INPUT = 1 << 0
 FAULT_NONFINITE = 1 << 1
 FAULT_EXPLODED = 1 << 2
 FAULT_OVERFLOW = 1 << 5
+# MuJoCo Warp's overflow bits that mean a world ran out of room (constraint rows, contacts,
+# collision pairs, ...) and its step dropped data. Its solver's iteration caps (ITERATIONS,
+# LS_ITERATIONS) are left out: such a step uses the last iterate, as MuJoCo's C library does on
+# the CPU path without a warning, so neither path faults it.
+ROOM_OVERFLOWS = int(mjw.OverflowType.ALL) & ~int(
+  mjw.OverflowType.ITERATIONS | mjw.OverflowType.LS_ITERATIONS)
 
 
 @wp.kernel
@@ -78,10 +84,10 @@ def _check(
       bits = bits | wp.uint32(FAULT_NONFINITE)
     elif wp.abs(v) > max_speed:
       bits = bits | wp.uint32(FAULT_EXPLODED)
-  if overflow[w] != 0:
+  if (overflow[w] & ROOM_OVERFLOWS) != 0:
     bits = bits | wp.uint32(FAULT_OVERFLOW)
     overflow_count[w] = overflow_count[w] + wp.int64(1)
-    overflow[w] = 0
+  overflow[w] = 0
   fault[w] = bits
   if bits != wp.uint32(0):
     fault_count[w] = fault_count[w] + wp.int64(1)

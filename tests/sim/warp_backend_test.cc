@@ -157,6 +157,27 @@ TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") 
   CHECK(roomy.room_advice().empty());
 }
 
+TEST_CASE("WarpBackend does not fault a world whose solver stops at its iteration cap",
+          "[warp]") {
+  // one Newton iteration: the hands' couplings and limits keep the solver from converging in
+  // it, and MuJoCo Warp marks such a step in its overflow word; the step used the last iterate
+  // (as MuJoCo's C library does on the CPU, silently), so it is no fault on either path
+  sim::PhysicsOptions p = test::physics();
+  p.iterations = 1;
+  const SimModel model = two_hand_scene(test::shadow(), p).build("two_hand_scene, 1 iteration");
+  WarpBackend w(model, 2, cpu_options());
+  SimBatch cpu(model, 2, BatchOptions{1, 0});
+  for (int i = 0; i < 4; ++i) {
+    w.step();
+    step(model, cpu);
+  }
+  CHECK(w.total_faults() == 0);
+  CHECK(w.total_overflows() == 0);
+  CHECK(w.room_advice().empty());
+  CHECK(cpu.total_faults() == 0);
+  for (float x : w.download("qpos")) CHECK(std::isfinite(x));
+}
+
 TEST_CASE("WarpBackend says what is missing when asked for a GPU it cannot have", "[warp]") {
   const SimModel& model = test::two_hand_model();
   WarpOptions o;
