@@ -351,8 +351,13 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
   // keeps the scene's margin over the use at 3.5x or more
   sim::PhysicsOptions ph = physics;
   if (kind_ == TableKind::kPourWater) ph.memory += (32 << 10) * p_.water_count;
-  // and up to 156 constraint rows with the default 8 balls (bench task, maxuse_efc)
-  if (kind_ == TableKind::kPourWater) ph.gpu.njmax = std::max(ph.gpu.njmax, 192);
+  // and up to 156 constraint rows with the default 8 balls under random actions (bench task,
+  // maxuse_efc), but up to 301 (over 64 contacts) under ML20 ProMP's trained policy
+  // (bench/results/gpu-meta-h100/ML20-promp-16384)
+  if (kind_ == TableKind::kPourWater) {
+    ph.gpu.njmax = std::max(ph.gpu.njmax, 448);
+    ph.gpu.nconmax = std::max(ph.gpu.nconmax, 128);
+  }
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
   sim::TableSpec table;
