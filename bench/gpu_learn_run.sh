@@ -28,9 +28,10 @@
 #       per task the slot-steps, the last training returns and the evaluation; a second call
 #       with the same TASKS and SLOTS resumes the runs for SECONDS more
 #   bench/gpu_learn_run.sh meta OUTDIR SUITE ALGO SLOTS SECONDS EPISODES [-o key=value ...]
-#       meta-trains ALGO (maml, promp, rl2) on SUITE's train split for SECONDS, then evaluates the
-#       run on both splits (bidex eval --split train|test, EPISODES slots per task, on the CPU)
-#       and a random policy on both; results go to OUTDIR/SUITE-ALGO
+#       meta-trains ALGO (maml, promp, rl2) on SUITE's train split for SECONDS (a second call with
+#       the same SUITE, ALGO and SLOTS resumes the run), then evaluates the run on both splits
+#       (bidex eval --split train|test, EPISODES slots per task, on the CPU; EPISODES 0: no
+#       evaluation, for a slice of a longer run); results go to OUTDIR/SUITE-ALGO
 # Results go to OUTDIR with the machine, date, commit ($BIDEX_COMMIT) and commands. The run
 # folders stay on the machine under /tmp/bidex-gpu-runs. BIDEX_GPU_BUILD: the build folder.
 set -uo pipefail
@@ -301,11 +302,16 @@ meta)
   mkdir -p "$out/$name" "$runs"
   run="$runs/$name-$slots"
   reg="$runs/registry.sqlite"
-  args=(train --suite "$suite" --algo "$algo" --device cuda -o env.slots="$slots" --run "$run"
-        --registry "$reg" --time-limit "$budget" "$@")
+  if [[ -f "$run/config.yaml" ]]; then
+    args=(train --resume "$run" --device cuda --registry "$reg" --time-limit "$budget")
+  else
+    args=(train --suite "$suite" --algo "$algo" --device cuda -o env.slots="$slots" --run "$run"
+          --registry "$reg" --time-limit "$budget" "$@")
+  fi
   "$bidex" "${args[@]}" 2>"$out/$name/progress.log" | tee -a "$out/$name/train.txt"
   echo "bidex ${args[*]}" >>"$out/$name/commands.txt"
   cp "$run"/{config.yaml,run.json,metrics.csv,learning_curve.svg,summary.json} "$out/$name/"
+  ((episodes > 0)) || { echo "meta: ${SECONDS}s (not evaluated)"; exit 0; }
   for split in train test; do
     eargs=(eval --run "$run" --split "$split" --episodes "$episodes" --registry "$reg"
            --json "$out/$name/eval-$split.json")
