@@ -92,14 +92,6 @@ TaskSlot TaskEnv::slot(int s) {
   return t;
 }
 
-namespace {
-// The observation row clipped; a non-finite value is set to 0 and faults the slot at its next
-// step (SlotState::nonfinite_obs).
-void clip_obs(float* o, int n, SlotState& st) {
-  if (!math::clip_finite(o, n, TaskEnv::kObsClip)) st.nonfinite_obs = true;
-}
-}  // namespace
-
 void set_goal_shifts(const TaskSpec& spec, SlotState* states, int nslot,
                      const std::vector<int>& slots, const std::vector<double>& shifts) {
   const std::string where = "task " + spec.id + ": goal shifts: ";
@@ -145,7 +137,7 @@ void TaskEnv::reset() {
     TaskSlot t = slot(s);
     float* o = obs.data() + s * od;
     task_->observe(t, o);
-    clip_obs(o, obs_dim_, state_[s]);
+    clip_observation(o, obs_dim_, kObsClip, state_[s]);
     reward[s] = 0;
     terminated[s] = truncated[s] = success[s] = fault[s] = 0;
   }
@@ -164,7 +156,7 @@ void TaskEnv::post_step(int s) {
   if (!faulted) {
     st.progress += 1;
     term = task_->evaluate(t, tv_);
-    for (int k = 0; k < nterms_; ++k) faulted = faulted || !math::isfinite(tv_[k]);
+    faulted = !math::all_finite(tv_, nterms_);
   }
   float* fo = final_obs.data() + static_cast<size_t>(s) * obs_dim_;
   if (!faulted) {
@@ -208,7 +200,7 @@ void TaskEnv::post_step(int s) {
     start_episode(s);
   }
   task_->observe(t, o);
-  clip_obs(o, obs_dim_, st);
+  clip_observation(o, obs_dim_, kObsClip, st);
   if (profile_on_) thread_times_[omp_get_thread_num() * kPad + 1] += now() - t0;
 }
 

@@ -55,6 +55,12 @@ template <class T>
 BIDEX_HD inline bool isfinite(T x) {
   return x - x == T(0);
 }
+template <class T>
+BIDEX_HD inline bool all_finite(const T* x, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!isfinite(x[i])) return false;
+  return true;
+}
 
 // An observation row clipped to [-c, c] in place, a non-finite value set to 0; false when a value
 // was not finite (the task stages then fault the world: tasks/README.md, "Faults").

@@ -7,6 +7,7 @@
 #include <type_traits>
 
 #include "core/hd.h"
+#include "tasks/math.h"
 
 namespace bidex::tasks {
 
@@ -35,6 +36,12 @@ struct SlotState {
   std::array<float, kMaxActions> action{};
 };
 static_assert(std::is_trivially_copyable_v<SlotState>, "copied to the device as bytes");
+
+// A running episode's observation row, clipped to [-c, c] in place; a non-finite value is set to
+// 0 and flags the slot, which faults at its next step (both backends: tasks/README.md, "Faults").
+BIDEX_HD inline void clip_observation(float* o, int n, float c, SlotState& st) {
+  if (!math::clip_finite(o, n, c)) st.nonfinite_obs = true;
+}
 
 // A new episode's state: everything cleared but the slot's task parameters.
 BIDEX_HD inline void new_episode(SlotState& st) {

@@ -352,8 +352,8 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
   sim::PhysicsOptions ph = physics;
   if (kind_ == TableKind::kPourWater) ph.memory += (32 << 10) * p_.water_count;
   // and up to 156 constraint rows with the default 8 balls under random actions (bench task,
-  // maxuse_efc), but up to 301 (over 64 contacts) under ML20 ProMP's trained policy
-  // (bench/results/gpu-meta-h100/ML20-promp-16384)
+  // maxuse_efc), but up to 301 under ML20 ProMP's trained policy
+  // (bench/results/gpu-meta-h100/ML20-promp-16384); contacts get a room raised alike
   if (kind_ == TableKind::kPourWater) {
     ph.gpu.njmax = std::max(ph.gpu.njmax, 448);
     ph.gpu.nconmax = std::max(ph.gpu.nconmax, 128);

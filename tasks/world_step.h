@@ -95,7 +95,7 @@ BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a,
   if (!faulted) {
     st.progress += 1;
     term = B::evaluate(p, rows, st, a.rng[w], tv);
-    for (int k = 0; k < a.nterms; ++k) faulted = faulted || !math::isfinite(tv[k]);
+    faulted = !math::all_finite(tv, a.nterms);
   }
   float* fo = a.final_obs + static_cast<int64_t>(w) * a.obs_dim;
   if (!faulted) {
@@ -160,7 +160,7 @@ BIDEX_HD void world_observe(const typename B::Program& p, const WorldArrays& a, 
   float* o = a.obs + static_cast<int64_t>(w) * a.obs_dim;
   SlotState& st = a.state[w];
   B::observe(p, world_rows(a, w), st, o);
-  if (!math::clip_finite(o, a.obs_dim, a.obs_clip)) st.nonfinite_obs = true;
+  clip_observation(o, a.obs_dim, a.obs_clip, st);
 }
 
 // The four stages by name, so that a runner writes its loop or kernel once for all of them.
