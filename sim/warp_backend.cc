@@ -166,7 +166,7 @@ WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
   try {
     impl_->bridge = mod.attr("Bridge")(mjb, nworld, model.physics().substeps, options_.njmax,
                                        options_.nconmax, model.physics().max_speed, roots,
-                                       options_.device);
+                                       options_.device, options_.sensors_every_substep);
   } catch (const py::error_already_set& e) {
     std::remove(mjb.c_str());
     throw DeviceError("GPU backend: MuJoCo Warp could not set up " + std::to_string(nworld) +

@@ -26,6 +26,10 @@ struct WarpOptions {
   // gpu.nconmax); a world that needs more is flagged (kFaultOverflow), reset and counted
   int njmax = 0;
   int nconmax = 0;
+  // Sensors at every substep, as MuJoCo Warp's own step computes them. By default the substeps
+  // before the last skip them (no sensor keeps a history in bidex's scenes): the state and the
+  // sensor values at the end of a control step are the same either way.
+  bool sensors_every_substep = false;
 };
 
 // One world-major array: `rows` worlds of `width` values (float32, or the named integer type).

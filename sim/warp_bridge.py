@@ -158,7 +158,8 @@ def _random_fill(seed: int, step: int, lo: float, hi: float, out: wp.array2d(dty
 class Bridge:
   """One scene's worlds on one Warp device."""
 
-  def __init__(self, mjb_path, nworld, substeps, njmax, nconmax, max_speed, root_bodies, device):
+  def __init__(self, mjb_path, nworld, substeps, njmax, nconmax, max_speed, root_bodies, device,
+               sensors_every_substep=False):
     """root_bodies: per hand, the base body a base wrench acts on (-1: a fixed base)."""
     wp.init()
     if device.startswith("cuda") and not wp.is_cuda_available():
@@ -201,6 +202,13 @@ class Bridge:
       mjw.forward(self.m, self.d)
       self.reset_mask.zero_()
       wp.synchronize_device(self.device)
+    # The tasks read sensors once per control step, after its last substep, and MuJoCo's
+    # sensors are instantaneous unless one keeps a history (delay, interval). Without one, the
+    # substeps before the last skip the sensor stages (for force and torque sensors that
+    # includes a whole post-constraint RNE pass): the last substep computes the same values.
+    self.sensors_last_only = bool(
+      not sensors_every_substep and mjm.nsensor > 0 and not np.any(mjm.sensor_history)
+      and not np.any(mjm.sensor_delay) and not np.any(mjm.sensor_interval))
     self.graphs = {}
     self.extra = {}
 
@@ -210,15 +218,27 @@ class Bridge:
     """One control step: substeps of physics with the base forces at the pivots, then the
     fault check, which marks faulty worlds in reset_mask."""
     m, d = self.m, self.d
-    for _ in range(self.substeps):
+    for k in range(self.substeps):
       if self.has_free_base:
         wp.launch(_base_wrench, dim=(self.nworld, self.root_body.shape[0]),
                   inputs=[self.root_body, self.base_wrench, d.xpos, d.xipos, d.xfrc_applied])
-      mjw.step(m, d)
+      if k < self.substeps - 1 and self.sensors_last_only:
+        self._step_without_sensors()
+      else:
+        mjw.step(m, d)
     wp.launch(_check, dim=self.nworld,
               inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
                       d.nefc, self.fault, self.fault_count, self.overflow_count, self.rows_max,
                       self.reset_mask])
+
+  def _step_without_sensors(self):
+    # the option is read when kernels are launched (or captured), so it holds for this call only
+    flags = self.m.opt.disableflags
+    self.m.opt.disableflags = flags | int(mjw.DisableBit.SENSOR)
+    try:
+      mjw.step(self.m, self.d)
+    finally:
+      self.m.opt.disableflags = flags
 
   def raw_step(self):
     """The same substeps without bidex's passes (benchmarks compare the two)."""
