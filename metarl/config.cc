@@ -36,7 +36,7 @@ GradientMetaConfig read_gradient_meta(const YamlView& p, bool promp) {
 Rl2Config read_rl2(const YamlView& p) {
   p.allow_keys({"hidden_size", "init_std", "horizon", "epochs", "minibatches", "clip", "lr",
                 "gamma", "lambda", "max_grad_norm", "entropy_coef", "value_coef",
-                "trial_episodes"});
+                "trial_episodes", "input_norm", "task_reward_norm"});
   Rl2Config c;
   c.hidden_size = rl::read_int(p, "hidden_size", 1);
   c.init_std = rl::read_real(p, "init_std", 0, 1e3, true);
@@ -51,6 +51,9 @@ Rl2Config read_rl2(const YamlView& p) {
   c.entropy_coef = rl::read_real(p, "entropy_coef", 0, 1e3, false);
   c.value_coef = rl::read_real(p, "value_coef", 0, 1e3, false);
   c.trial_episodes = rl::read_int(p, "trial_episodes", 1);
+  // optional: runs made before they existed have neither, and their checkpoints hold neither
+  if (auto v = p.maybe("input_norm")) c.input_norm = v->as<bool>();
+  if (auto v = p.maybe("task_reward_norm")) c.task_reward_norm = v->as<bool>();
   return c;
 }
 

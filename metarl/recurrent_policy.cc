@@ -14,8 +14,10 @@ torch::Tensor rl2_input(const torch::Tensor& obs, const torch::Tensor& prev_acti
                     -1);
 }
 
+torch::Tensor symlog(const torch::Tensor& x) { return torch::sign(x) * torch::log1p(x.abs()); }
+
 RecurrentPolicyImpl::RecurrentPolicyImpl(int64_t obs_dim, int64_t act_dim, int64_t hidden_size,
-                                         double init_std)
+                                         double init_std, bool input_norm)
     : obs_dim_(obs_dim), act_dim_(act_dim), hidden_size_(hidden_size) {
   if (obs_dim <= 0 || act_dim <= 0 || hidden_size <= 0 || !(init_std > 0))
     throw std::invalid_argument(
@@ -32,6 +34,18 @@ RecurrentPolicyImpl::RecurrentPolicyImpl(int64_t obs_dim, int64_t act_dim, int64
   torch::nn::init::orthogonal_(value_head_->weight, 1.0);
   torch::nn::init::zeros_(value_head_->bias);
   log_std_ = register_parameter("log_std", torch::full({act_dim}, std::log(init_std)));
+  if (input_norm) obs_norm_ = register_module("obs_norm", rl::RunningNorm(obs_dim));
+}
+
+torch::Tensor RecurrentPolicyImpl::input(const torch::Tensor& obs, const torch::Tensor& prev_action,
+                                         const torch::Tensor& prev_reward,
+                                         const torch::Tensor& prev_done) const {
+  if (!input_norm()) return rl2_input(obs, prev_action, prev_reward, prev_done);
+  return rl2_input(obs_norm_->normalize(obs), prev_action, symlog(prev_reward), prev_done);
+}
+
+void RecurrentPolicyImpl::update_input_norm(const torch::Tensor& obs) {
+  if (input_norm()) obs_norm_->update(obs);
 }
 
 std::tuple<torch::Tensor, torch::Tensor, torch::Tensor> RecurrentPolicyImpl::forward_step(

@@ -3,7 +3,6 @@
 // its task: the policy's memory runs through the whole trial and is cleared only when the next
 // trial starts, and the return it maximises is the trial's (advantages are cut at trial ends,
 // not at episode ends), so exploring in the first episode pays in the later ones.
-// Not yet behind `bidex train --algo rl2` (metarl/README.md).
 #pragma once
 
 #include <vector>
@@ -28,6 +27,14 @@ struct Rl2Config {
   double entropy_coef = 0.0;
   double value_coef = 2.0;
   int trial_episodes = 2;     // episodes of one task per trial
+  // The GRU reads observations normalised by a running mean and std, and the previous reward
+  // as symlog (RecurrentPolicyImpl::input).
+  bool input_norm = false;
+  // The learner divides each task's rewards by the running std of that task's discounted
+  // returns before the advantages and the critic's targets, so that tasks whose rewards differ
+  // by orders of magnitude weigh alike (a suite's tasks do); a scaled reward is clipped to
+  // +-10 per step. The policy never sees the scale.
+  bool task_reward_norm = false;
 };
 
 class Rl2 {
@@ -40,6 +47,13 @@ class Rl2 {
   torch::Tensor act(const torch::Tensor& obs);
   // The step that followed the last act(): rewards [N] and done flags [N] (episode ends).
   void observe(const torch::Tensor& reward, const torch::Tensor& done);
+  // Each slot's task (0 .. ntasks - 1): task_reward_norm keeps one return scale per task. By
+  // default every slot is task 0.
+  void set_slot_tasks(const std::vector<int>& slot_task, int ntasks);
+  // Per task: the count, mean and variance of the discounted returns seen so far, [3, ntasks]
+  // (float64); checkpoints keep them.
+  torch::Tensor task_return_stats() const;
+  void set_task_return_stats(const torch::Tensor& stats);
   // PPO over the rollout of horizon steps; `obs` are the observations after the last one.
   // Returns policy_loss, value_loss, entropy and the KL to the rollout's policy.
   std::vector<double> update(const torch::Tensor& obs);
@@ -53,6 +67,9 @@ class Rl2 {
   torch::optim::Adam& optimizer() { return *opt_; }
 
  private:
+  // task_reward_norm: the rewards [N] divided by their tasks' return std
+  torch::Tensor scaled(const torch::Tensor& reward, const torch::Tensor& done);
+
   Rl2Config c_;
   int64_t nslot_;
   RecurrentPolicy policy_;
@@ -64,6 +81,9 @@ class Rl2 {
   // each step; the memory before step 0
   torch::Tensor inputs_, actions_, means_, logp_, values_, rewards_, cuts_, resets_, hidden0_;
   int t_ = 0;
+  // task_reward_norm: each slot's task [N] (long) and discounted return so far [N]; per task
+  // the return statistics [ntasks] (float64)
+  torch::Tensor slot_task_, slot_return_, task_count_, task_mean_, task_var_;
 };
 
 }  // namespace bidex::metarl

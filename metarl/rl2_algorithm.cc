@@ -20,12 +20,15 @@ class Rl2Algorithm final : public rl::Algorithm, public rl::Adaptive {
       learner_ = std::make_unique<Rl2>(D, A, N, c, device);
       policy_ = learner_->policy();
     } else {  // acting only (evaluation, render)
-      policy_ = RecurrentPolicy(D, A, c.hidden_size, c.init_std);
+      policy_ = RecurrentPolicy(D, A, c.hidden_size, c.init_std, c.input_norm);
       policy_->to(device);
     }
   }
 
   int steps_per_update() const override { return c_.horizon; }
+  void set_slot_tasks(const std::vector<int>& slot_task, int ntasks) override {
+    if (learner_) learner_->set_slot_tasks(slot_task, ntasks);
+  }
   torch::Tensor act(const torch::Tensor& obs) override { return learner_->act(obs); }
   void observe(const rl::Transition& t) override { learner_->observe(t.reward, t.done); }
   std::vector<double> update(const torch::Tensor& obs) override { return learner_->update(obs); }
@@ -38,12 +41,18 @@ class Rl2Algorithm final : public rl::Algorithm, public rl::Adaptive {
   void save(torch::serialize::OutputArchive& root) override {
     rl::write_part(root, "recurrent_policy", *policy_);
     rl::write_part(root, "optimizer", learner_->optimizer());
+    if (c_.task_reward_norm) root.write("task_return_stats", learner_->task_return_stats());
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     rl::read_checked(path, "does not fit this run's networks", [&] {
       rl::read_module(root, "recurrent_policy", *policy_, path, "this run's recurrent policy");
       rl::read_optimizer(root, "optimizer", learner_->optimizer());
+      if (c_.task_reward_norm) {
+        torch::Tensor stats;
+        root.read("task_return_stats", stats);
+        learner_->set_task_return_stats(stats);
+      }
     });
   }
 
@@ -58,8 +67,8 @@ class Rl2Algorithm final : public rl::Algorithm, public rl::Adaptive {
     torch::NoGradGuard ng;
     const int64_t n = obs.size(0);
     const auto f = obs.options();
-    const auto input = rl2_input(obs, torch::zeros({n, A_}, f), torch::zeros({n}, f),
-                                 torch::zeros({n}, f));
+    const auto input = policy_->input(obs, torch::zeros({n, A_}, f), torch::zeros({n}, f),
+                                      torch::zeros({n}, f));
     return std::get<0>(policy_->forward_step(input, policy_->initial_hidden(n))).clamp(-1, 1);
   }
 
@@ -93,7 +102,7 @@ class Rl2Algorithm final : public rl::Algorithm, public rl::Adaptive {
  private:
   torch::Tensor step(const torch::Tensor& obs, bool sample) {
     torch::NoGradGuard ng;
-    const auto input = rl2_input(obs, prev_action_, prev_reward_, prev_done_);
+    const auto input = policy_->input(obs, prev_action_, prev_reward_, prev_done_);
     auto [mean, value, h] = policy_->forward_step(input, hidden_);
     next_hidden_ = h;
     auto a = sample ? mean + policy_->log_std().exp() * torch::randn_like(mean) : mean;

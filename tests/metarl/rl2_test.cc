@@ -1,9 +1,17 @@
 // metarl/rl2: RL^2's learner keeps each slot's memory through the episodes of a trial and clears
-// it only where the next trial starts; its PPO update learns a simple rewarded action.
+// it only where the next trial starts; its PPO update learns a simple rewarded action; its
+// input normalisation and per-task reward scale.
+// LibTorch first: Debian's LibTorch pulls in glog, whose CHECK macro would replace Catch's
+#include <torch/torch.h>
+#undef CHECK
+
 #include <cmath>
+#include <sstream>
 
 #include <catch2/catch.hpp>
 
+#include "core/yaml.h"
+#include "metarl/config.h"
 #include "metarl/rl2.h"
 
 using namespace bidex;
@@ -78,4 +86,104 @@ TEST_CASE("RL^2's PPO update moves the policy towards the rewarded action", "[me
   INFO("mean action, first rollout " << first << ", last " << last);
   CHECK(last > first + 0.2);
   CHECK(last == Approx(0.5).margin(0.25));
+}
+
+TEST_CASE("RL^2's input_norm: normalised observations and symlog rewards, kept by the policy",
+          "[metarl][rl2]") {
+  torch::manual_seed(7);
+  auto c = small();
+  c.input_norm = true;
+  metarl::Rl2 rl2(3, 2, 64, c, torch::Device(torch::kCPU));
+  REQUIRE(rl2.policy()->input_norm());
+  // observations far from zero, of different scales per dimension
+  const auto scale = torch::tensor({1.f, 100.f, 0.01f});
+  const auto offset = torch::tensor({50.f, -300.f, 2.f});
+  for (int t = 0; t < 4; ++t) {
+    rl2.act(torch::randn({64, 3}) * scale + offset);
+    rl2.observe(torch::zeros({64}), torch::zeros({64}));
+  }
+  const auto obs = torch::randn({64, 3}) * scale + offset;
+  const auto r = torch::tensor({std::exp(1.f) - 1, -(std::exp(2.f) - 1)}).repeat({32});
+  torch::NoGradGuard ng;
+  const auto in = rl2.policy()->input(obs, torch::zeros({64, 2}), r, torch::zeros({64}));
+  REQUIRE(in.size(1) == 3 + 2 + 2);
+  const auto o = in.slice(1, 0, 3);
+  CHECK(o.mean(0).abs().max().item<float>() < 0.5);
+  CHECK(o.std(0).sub(1).abs().max().item<float>() < 0.3);
+  // symlog: e - 1 -> 1, -(e^2 - 1) -> -2
+  CHECK(in[0][5].item<float>() == Approx(1.0).margin(1e-5));
+  CHECK(in[1][5].item<float>() == Approx(-2.0).margin(1e-5));
+  // the statistics are the module's: a copy made from its saved state reads the same rows
+  std::stringstream buf;
+  torch::save(rl2.policy(), buf);
+  metarl::RecurrentPolicy copy(3, 2, 8, 0.8, true);
+  torch::load(copy, buf);
+  CHECK(torch::allclose(copy->input(obs, torch::zeros({64, 2}), r, torch::zeros({64})), in));
+  // without input_norm the row is the raw rl2_input
+  metarl::RecurrentPolicy raw(3, 2, 8, 0.8);
+  CHECK_FALSE(raw->input_norm());
+  CHECK(torch::equal(raw->input(obs, torch::zeros({64, 2}), r, torch::zeros({64})),
+                     metarl::rl2_input(obs, torch::zeros({64, 2}), r, torch::zeros({64}))));
+}
+
+TEST_CASE("RL^2's task_reward_norm keeps one return scale per task", "[metarl][rl2]") {
+  torch::manual_seed(9);
+  auto c = small();
+  c.task_reward_norm = true;
+  c.gamma = 0.5;
+  c.horizon = 8;
+  metarl::Rl2 rl2(3, 1, 4, c, torch::Device(torch::kCPU));
+  // slots 0 and 2 do task 0 (reward 1000 per step), slots 1 and 3 task 1 (reward 0.001);
+  // episodes of 4 steps
+  rl2.set_slot_tasks({0, 1, 0, 1}, 2);
+  const auto obs = torch::zeros({4, 3});
+  const auto reward = torch::tensor({1000.f, 0.001f, 1000.f, 0.001f});
+  for (int t = 0; t < 8; ++t) {
+    rl2.act(obs);
+    rl2.observe(reward, torch::full({4}, t % 4 == 3 ? 1.f : 0.f));
+  }
+  // each task's returns within an episode: r, 1.5 r, 1.75 r, 1.875 r, twice over
+  const std::vector<double> g = {1, 1.5, 1.75, 1.875};
+  double mean = 0, var = 0;
+  for (double x : g) mean += x / 4;
+  for (double x : g) var += (x - mean) * (x - mean) / 4;
+  const auto s = rl2.task_return_stats();
+  REQUIRE(s.sizes() == torch::IntArrayRef({3, 2}));
+  CHECK(s[0][0].item<double>() == 16);  // 8 steps of 2 slots
+  CHECK(s[1][0].item<double>() == Approx(1000 * mean).epsilon(1e-6));
+  CHECK(s[1][1].item<double>() == Approx(0.001 * mean).epsilon(1e-4));
+  CHECK(s[2][0].item<double>() == Approx(1e6 * var).epsilon(1e-6));
+  CHECK(s[2][1].item<double>() == Approx(1e-6 * var).epsilon(1e-3));
+  // the update runs on rewards of one scale (the first steps' clipped to 10: each task's
+  // returns were all alike then): finite, and the critic's loss stays small (unscaled, task
+  // 0's values would be in the thousands)
+  const auto m = rl2.update(obs);
+  for (double v : m) CHECK(std::isfinite(v));
+  INFO("value loss " << m[1]);
+  CHECK(m[1] < 100);
+  // the statistics go to a checkpoint and come back
+  metarl::Rl2 other(3, 1, 4, c, torch::Device(torch::kCPU));
+  other.set_slot_tasks({0, 1, 0, 1}, 2);
+  other.set_task_return_stats(s);
+  CHECK(torch::equal(other.task_return_stats(), s));
+  CHECK_THROWS_AS(other.set_task_return_stats(torch::zeros({3, 5})), std::invalid_argument);
+  CHECK_THROWS_AS(other.set_slot_tasks({0, 1}, 2), std::invalid_argument);
+}
+
+TEST_CASE("RL^2's section: input_norm and task_reward_norm are optional, off when absent",
+          "[metarl][rl2]") {
+  const std::string base =
+      "hidden_size: 8\ninit_std: 0.8\nhorizon: 4\nepochs: 1\nminibatches: 2\nclip: 0.2\n"
+      "lr: 0.001\ngamma: 0.9\nlambda: 0.95\nmax_grad_norm: 1\nentropy_coef: 0\nvalue_coef: 1\n"
+      "trial_episodes: 2\n";
+  const auto old = metarl::read_rl2(YamlView::load_string(base, "old run"));
+  CHECK_FALSE(old.input_norm);
+  CHECK_FALSE(old.task_reward_norm);
+  const auto now = metarl::read_rl2(
+      YamlView::load_string(base + "input_norm: true\ntask_reward_norm: true\n", "new run"));
+  CHECK(now.input_norm);
+  CHECK(now.task_reward_norm);
+  CHECK_THROWS_WITH(
+      metarl::read_rl2(YamlView::load_string(base + "input_norm: maybe\n", "bad run")),
+      Catch::Contains("input_norm"));
 }
