@@ -51,6 +51,8 @@ void Rl2::set_slot_tasks(const std::vector<int>& slot_task, int ntasks) {
   std::vector<int64_t> ids(slot_task.begin(), slot_task.end());
   slot_task_ = torch::tensor(ids, torch::kLong).to(dev);
   const auto f64 = torch::TensorOptions().dtype(torch::kFloat64).device(dev);
+  task_slots_ = torch::zeros({ntasks}, f64).index_add_(
+      0, slot_task_, torch::ones({nslot_}, f64));
   task_count_ = torch::zeros({ntasks}, f64);
   task_mean_ = torch::zeros({ntasks}, f64);
   task_var_ = torch::ones({ntasks}, f64);
@@ -109,23 +111,16 @@ void Rl2::observe(const torch::Tensor& reward, const torch::Tensor& done) {
 }
 
 torch::Tensor Rl2::scaled(const torch::Tensor& reward, const torch::Tensor& done) {
-  // each slot's discounted return so far joins its task's running statistics (Chan's update),
-  // then the reward is divided by its task's return std; the return restarts after an episode
+  // each slot's discounted return so far joins its task's running statistics (rl's
+  // merge_moments), then the reward is divided by its task's return std; the return restarts
+  // after an episode
   slot_return_ = slot_return_ * c_.gamma + reward.to(slot_return_.dtype());
   const auto x = slot_return_.to(torch::kFloat64);
-  const auto n = torch::zeros_like(task_count_).index_add_(0, slot_task_, torch::ones_like(x));
-  const auto sum = torch::zeros_like(task_mean_).index_add_(0, slot_task_, x);
-  const auto bmean = sum / n.clamp_min(1);
+  const auto per = task_slots_.clamp_min(1);
+  const auto bmean = torch::zeros_like(task_mean_).index_add_(0, slot_task_, x) / per;
   const auto dev = x - bmean.index_select(0, slot_task_);
-  const auto bvar = torch::zeros_like(task_var_).index_add_(0, slot_task_, dev * dev) /
-                    n.clamp_min(1);
-  const auto total = task_count_ + n;
-  const auto delta = bmean - task_mean_;
-  const auto seen = n > 0;
-  const auto m2 = task_var_ * task_count_ + bvar * n + delta.pow(2) * task_count_ * n / total;
-  task_mean_ = torch::where(seen, task_mean_ + delta * n / total, task_mean_);
-  task_var_ = torch::where(seen, m2 / total, task_var_);
-  task_count_ = total;
+  const auto bvar = torch::zeros_like(task_var_).index_add_(0, slot_task_, dev * dev) / per;
+  rl::merge_moments(task_count_, task_mean_, task_var_, task_slots_, bmean, bvar);
   slot_return_ = slot_return_ * (1 - done);
   // clipped: early on a task's returns may all be alike (a variance near zero)
   const auto std = (task_var_ + 1e-8).sqrt().index_select(0, slot_task_);

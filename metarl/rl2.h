@@ -82,8 +82,8 @@ class Rl2 {
   torch::Tensor inputs_, actions_, means_, logp_, values_, rewards_, cuts_, resets_, hidden0_;
   int t_ = 0;
   // task_reward_norm: each slot's task [N] (long) and discounted return so far [N]; per task
-  // the return statistics [ntasks] (float64)
-  torch::Tensor slot_task_, slot_return_, task_count_, task_mean_, task_var_;
+  // its slots and the return statistics [ntasks] (float64)
+  torch::Tensor slot_task_, slot_return_, task_slots_, task_count_, task_mean_, task_var_;
 };
 
 }  // namespace bidex::metarl

@@ -11,20 +11,24 @@ RunningNormImpl::RunningNormImpl(int64_t dim, double clip) : clip_(clip) {
   count_ = register_buffer("count", torch::full({1}, 1e-4, f64));
 }
 
+void merge_moments(torch::Tensor& count, torch::Tensor& mean, torch::Tensor& var,
+                   const torch::Tensor& n, const torch::Tensor& bmean, const torch::Tensor& bvar) {
+  const auto total = count + n;
+  const auto seen = total > 0;
+  const auto safe = torch::where(seen, total, torch::ones_like(total));
+  const auto delta = bmean - mean;
+  const auto m2 = var * count + bvar * n + delta.pow(2) * count * n / safe;
+  mean.copy_(torch::where(seen, mean + delta * n / safe, mean));
+  var.copy_(torch::where(seen, m2 / safe, var));
+  count.copy_(total);
+}
+
 void RunningNormImpl::update(const torch::Tensor& x) {
   torch::NoGradGuard ng;
   auto xd = x.detach().to(torch::kFloat64).reshape({-1, mean_.size(0)});
-  const double n = static_cast<double>(xd.size(0));
-  if (n == 0) return;
-  auto bmean = xd.mean(0);
-  auto bvar = xd.var(0, /*unbiased=*/false);
-  auto total = count_ + n;
-  auto delta = bmean - mean_;
-  auto new_mean = mean_ + delta * n / total;
-  auto m2 = var_ * count_ + bvar * n + delta.pow(2) * count_ * n / total;
-  mean_.copy_(new_mean);
-  var_.copy_(m2 / total);
-  count_.copy_(total);
+  if (xd.size(0) == 0) return;
+  merge_moments(count_, mean_, var_, torch::full_like(count_, double(xd.size(0))), xd.mean(0),
+                xd.var(0, /*unbiased=*/false));
 }
 
 torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const {
