@@ -4,11 +4,21 @@
 
 namespace bidex::metarl {
 
+namespace {
+// input_norm and task_reward_norm, optional: runs made before they existed have neither, and
+// their checkpoints hold neither
+void read_scale_options(const YamlView& p, bool& input_norm, bool& task_reward_norm) {
+  if (auto v = p.maybe("input_norm")) input_norm = v->as<bool>();
+  if (auto v = p.maybe("task_reward_norm")) task_reward_norm = v->as<bool>();
+}
+}  // namespace
+
 GradientMetaConfig read_gradient_meta(const YamlView& p, bool promp) {
   std::vector<std::string> keys = {"hidden", "activation", "init_std", "horizon", "inner_steps",
                                    "inner_lr", "first_order", "epochs", "lr", "clip", "gamma",
                                    "lambda", "max_grad_norm"};
   if (promp) keys.insert(keys.end(), {"init_kl_coef", "target_kl"});
+  keys.insert(keys.end(), {"input_norm", "task_reward_norm"});
   p.allow_keys(keys);
   GradientMetaConfig c;
   c.hidden = rl::read_widths(p.child("hidden"));
@@ -30,6 +40,7 @@ GradientMetaConfig read_gradient_meta(const YamlView& p, bool promp) {
   } else {
     c.init_kl_coef = 0;
   }
+  read_scale_options(p, c.input_norm, c.task_reward_norm);
   return c;
 }
 
@@ -51,9 +62,7 @@ Rl2Config read_rl2(const YamlView& p) {
   c.entropy_coef = rl::read_real(p, "entropy_coef", 0, 1e3, false);
   c.value_coef = rl::read_real(p, "value_coef", 0, 1e3, false);
   c.trial_episodes = rl::read_int(p, "trial_episodes", 1);
-  // optional: runs made before they existed have neither, and their checkpoints hold neither
-  if (auto v = p.maybe("input_norm")) c.input_norm = v->as<bool>();
-  if (auto v = p.maybe("task_reward_norm")) c.task_reward_norm = v->as<bool>();
+  read_scale_options(p, c.input_norm, c.task_reward_norm);
   return c;
 }
 

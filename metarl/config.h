@@ -29,6 +29,13 @@ struct GradientMetaConfig {
   // ProMP only: the KL penalty keeping the meta-policy near the one that sampled
   double init_kl_coef = 5e-4;
   double target_kl = 0.016;
+  // The policy and the critic read observations normalised by a running mean and std (kept in
+  // checkpoints), updated from the training rollouts only.
+  bool input_norm = false;
+  // Each task's rewards are divided by the running std of its discounted returns before the
+  // advantages and the critic's targets (task_scale.h); at evaluation, by the std of the
+  // adaptation rows' own returns.
+  bool task_reward_norm = false;
 };
 
 GradientMetaConfig read_gradient_meta(const YamlView& section, bool promp);

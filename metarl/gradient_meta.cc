@@ -5,7 +5,9 @@
 // steps: each adapts theta again, differentiably, and minimises the mean over tasks of the
 // clipped surrogate of the adapted policy on its rollouts (ProMP adds its KL penalty on the
 // pre-adaptation rows). A critic, fitted to both phases' returns, gives GAE advantages.
-// Episodes run on across the phase boundary; time-limited ones are bootstrapped.
+// Episodes run on across the phase boundary; time-limited ones are bootstrapped. Optionally
+// (config.h) both networks read normalised observations and each task's rewards are scaled by
+// its return std (task_scale.h).
 #include <cmath>
 
 #include "metarl/algorithms.h"
@@ -13,6 +15,7 @@
 #include "metarl/functional_policy.h"
 #include "metarl/maml.h"
 #include "metarl/promp.h"
+#include "metarl/task_scale.h"
 #include "rl/checkpoint.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
@@ -58,15 +61,17 @@ Batch task_batch(const torch::Tensor& obs, const torch::Tensor& actions,
   return {pick(obs), pick(actions), normalised(pick(adv)), pick(logp)};
 }
 
-// One phase's rollout, [T, N, ...].
+// One phase's rollout, [T, N, ...]: rewards as learned from (task_reward_norm's scale, the
+// time-limit bootstraps), paid as the tasks paid them (the metrics).
 struct Phase {
-  torch::Tensor obs, actions, logp, values, rewards, dones;
+  torch::Tensor obs, actions, logp, values, rewards, paid, dones;
   void allocate(int64_t T, int64_t N, int64_t D, int64_t A, const torch::TensorOptions& f) {
     obs = torch::zeros({T, N, D}, f);
     actions = torch::zeros({T, N, A}, f);
     logp = torch::zeros({T, N}, f);
     values = torch::zeros({T, N}, f);
     rewards = torch::zeros({T, N}, f);
+    paid = torch::zeros({T, N}, f);
     dones = torch::zeros({T, N}, f);
   }
 };
@@ -82,6 +87,10 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     critic_ = rl::mlp(D, c.hidden, 1, c.activation, 1.0);
     params_->to(device);
     critic_->to(device);
+    if (c.input_norm) {
+      obs_norm_ = rl::RunningNorm(D);
+      obs_norm_->to(device);
+    }
     std::vector<torch::Tensor> all = params_->parameters();
     for (auto& p : critic_->parameters()) all.push_back(p);
     opt_ = std::make_unique<torch::optim::Adam>(all, torch::optim::AdamOptions(c.lr));
@@ -90,6 +99,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     if (N > 0) {
       pre_.allocate(c.horizon, N, D, A, f);
       post_.allocate(c.horizon, N, D, A, f);
+      if (c.task_reward_norm) scale_ = std::make_unique<TaskReturnScale>(N, c.gamma, device);
       set_slot_tasks(std::vector<int>(N, 0), 1);
     }
   }
@@ -98,10 +108,13 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
 
   void set_slot_tasks(const std::vector<int>& slot_task, int ntasks) override {
     task_rows_ = group_slots(slot_task, ntasks);
+    if (scale_) scale_->set_slot_tasks(slot_task, ntasks);
   }
 
-  torch::Tensor act(const torch::Tensor& obs) override {
+  torch::Tensor act(const torch::Tensor& raw_obs) override {
     torch::NoGradGuard ng;
+    if (obs_norm_) obs_norm_->update(raw_obs);
+    const auto obs = in(raw_obs);
     const bool pre = t_ < c_.horizon;
     if (t_ == c_.horizon) adapted_ = adapt_from_pre(obs);
     Phase& ph = pre ? pre_ : post_;
@@ -125,7 +138,8 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     torch::NoGradGuard ng;
     Phase& ph = t_ < c_.horizon ? pre_ : post_;
     const int64_t k = t_ < c_.horizon ? t_ : t_ - c_.horizon;
-    ph.rewards[k] = bootstrapped(t);
+    ph.rewards[k] = (scale_ ? scale_->scaled(t.reward, t.done) : t.reward) + bootstrap(t);
+    ph.paid[k] = t.reward;
     ph.dones[k] = t.done;
     ++t_;
   }
@@ -135,7 +149,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     torch::Tensor post_adv, post_ret;
     {
       torch::NoGradGuard ng;
-      const auto last = critic_->forward(obs).squeeze(-1);
+      const auto last = critic_->forward(in(obs)).squeeze(-1);
       std::tie(post_adv, post_ret) =
           rl::gae(post_.rewards, post_.values, post_.dones, last, c_.gamma, c_.lambda);
     }
@@ -190,8 +204,8 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
             m[2].item<double>(),
             kl_after,
             eta_.item<double>(),
-            pre_.rewards.mean().item<double>(),
-            post_.rewards.mean().item<double>()};
+            pre_.paid.mean().item<double>(),
+            post_.paid.mean().item<double>()};
   }
 
   const std::vector<std::string>& metric_names() const override {
@@ -206,6 +220,8 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     rl::write_part(root, "critic", *critic_);
     rl::write_part(root, "optimizer", *opt_);
     root.write("kl_coef", eta_);
+    if (obs_norm_) rl::write_part(root, "obs_norm", *obs_norm_);
+    if (scale_) root.write("task_return_stats", scale_->stats());
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
@@ -216,6 +232,12 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
       torch::Tensor eta;
       root.read("kl_coef", eta);
       eta_.copy_(eta.to(torch::kCPU));
+      read_obs_norm(root, path);
+      if (scale_) {
+        torch::Tensor stats;
+        root.read("task_return_stats", stats);
+        scale_->set_stats(stats);
+      }
     });
   }
 
@@ -224,12 +246,13 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     rl::read_checked(path, "holds no meta-policy", [&] {
       rl::read_module(root, "meta_policy", *params_, path, "this run's meta-policy");
       rl::read_module(root, "critic", *critic_, path, "this run's critic");
+      read_obs_norm(root, path);
     });
   }
 
   torch::Tensor actor(const torch::Tensor& obs) override {
     torch::NoGradGuard ng;
-    return pi_.mean(theta(), obs).clamp(-1, 1);
+    return pi_.mean(theta(), in(obs)).clamp(-1, 1);
   }
 
   rl::Adaptive* adaptive() override { return this; }
@@ -242,8 +265,9 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     exploring_ = false;
   }
 
-  torch::Tensor explore(const torch::Tensor& obs) override {
+  torch::Tensor explore(const torch::Tensor& raw_obs) override {
     torch::NoGradGuard ng;
+    const auto obs = in(raw_obs);
     auto [mean, log_std] = per_task(eval_adapted_, eval_rows_, obs);
     const auto a = mean + log_std.exp() * torch::randn_like(mean);
     EvalStep s;
@@ -258,14 +282,15 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
   torch::Tensor exploit(const torch::Tensor& obs) override {
     torch::NoGradGuard ng;
     exploring_ = false;  // nothing to adapt from: observe() keeps no row of this step
-    return per_task(eval_adapted_, eval_rows_, obs).first.clamp(-1, 1);
+    return per_task(eval_adapted_, eval_rows_, in(obs)).first.clamp(-1, 1);
   }
 
   void observe(const rl::Transition& t, const torch::Tensor& keep) override {
     torch::NoGradGuard ng;
     if (!exploring_) return;
     EvalStep& s = eval_.back();
-    s.reward = bootstrapped(t);
+    s.reward = t.reward.to(torch::kFloat32).clone();
+    s.boot = bootstrap(t);
     s.done = t.done;
     s.keep = keep.clone();
   }
@@ -287,9 +312,22 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     torch::Tensor adv;
     {
       torch::NoGradGuard ng;
+      auto rewards = stack(&EvalStep::reward);
+      if (c_.task_reward_norm) {
+        // a held-out task has no statistics: each task's scale from its own kept rows
+        auto per_slot = torch::ones_like(rewards[0]);
+        for (const auto& idx : eval_rows_) {
+          if (idx.numel() == 0) continue;
+          const double s = return_std(rewards.index_select(1, idx), dones.index_select(1, idx),
+                                      keep.index_select(1, idx), c_.gamma);
+          per_slot.index_fill_(0, idx, 1.0 / s);
+        }
+        rewards = (rewards * per_slot).clamp(-TaskReturnScale::kMaxScaled,
+                                             TaskReturnScale::kMaxScaled);
+      }
       const auto values = critic_->forward(obs).squeeze(-1);
-      adv = rl::gae(stack(&EvalStep::reward), values, dones, torch::zeros_like(values[0]),
-                    c_.gamma, c_.lambda)
+      adv = rl::gae(rewards + stack(&EvalStep::boot), values, dones,
+                    torch::zeros_like(values[0]), c_.gamma, c_.lambda)
                 .first;
     }
     const auto actions = stack(&EvalStep::actions), logp = stack(&EvalStep::logp);
@@ -303,7 +341,9 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
 
  private:
   struct EvalStep {
-    torch::Tensor obs, actions, logp, reward, done, keep;
+    // obs as the networks read them; reward as the task pays it; boot: gamma V(last
+    // observation) where the time limit cut an episode, else 0
+    torch::Tensor obs, actions, logp, reward, boot, done, keep;
   };
 
   const std::vector<torch::Tensor>& theta() const { return params_->list; }
@@ -334,13 +374,22 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     return {mean, log_std};
   }
 
-  // the step's reward, plus gamma V(last observation) where the time limit cut the episode
-  torch::Tensor bootstrapped(const rl::Transition& t) {
-    auto r = t.reward.to(torch::kFloat32).clone();
+  // observations as the networks read them
+  torch::Tensor in(const torch::Tensor& obs) const {
+    return obs_norm_ ? obs_norm_->normalize(obs) : obs;
+  }
+
+  void read_obs_norm(torch::serialize::InputArchive& root, const std::string& path) {
+    if (obs_norm_) rl::read_module(root, "obs_norm", *obs_norm_, path, "this run's obs_norm");
+  }
+
+  // gamma V(last observation) where the time limit cut the step's episode, else 0, [N]
+  torch::Tensor bootstrap(const rl::Transition& t) {
+    auto b = torch::zeros({t.reward.size(0)}, t.reward.options().dtype(torch::kFloat32));
     if (t.final_ids.numel() > 0)
-      r.index_add_(0, t.final_ids,
-                   c_.gamma * critic_->forward(t.final_obs).squeeze(-1).to(torch::kFloat32));
-    return r;
+      b.index_add_(0, t.final_ids,
+                   c_.gamma * critic_->forward(in(t.final_obs)).squeeze(-1).to(torch::kFloat32));
+    return b;
   }
 
   // `steps` adaptation steps from `params` on one task's rows
@@ -378,6 +427,8 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
   FunctionalGaussian pi_;  // the architecture; params_ holds the meta-parameters
   Params params_{nullptr};
   torch::nn::Sequential critic_{nullptr};
+  rl::RunningNorm obs_norm_{nullptr};        // input_norm
+  std::unique_ptr<TaskReturnScale> scale_;   // task_reward_norm, when training
   std::unique_ptr<torch::optim::Adam> opt_;
   torch::Tensor eta_;  // ProMP's KL coefficient, [1] float64 on the CPU (checkpointed)
   std::vector<torch::Tensor> task_rows_;

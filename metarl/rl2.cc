@@ -7,15 +7,12 @@
 
 namespace bidex::metarl {
 
-namespace {
-constexpr double kMaxScaledReward = 10;  // task_reward_norm's clip, per step
-}  // namespace
-
 Rl2::Rl2(int64_t obs_dim, int64_t act_dim, int64_t nslot, const Rl2Config& config,
          const torch::Device& device)
     : c_(config),
       nslot_(nslot),
-      policy_(obs_dim, act_dim, config.hidden_size, config.init_std, config.input_norm) {
+      policy_(obs_dim, act_dim, config.hidden_size, config.init_std, config.input_norm),
+      scale_(nslot, config.gamma, device) {
   if (nslot < c_.minibatches)
     throw std::invalid_argument("RL^2: " + std::to_string(nslot) + " slots cannot make " +
                                 std::to_string(c_.minibatches) + " minibatches of whole slots");
@@ -39,37 +36,6 @@ Rl2::Rl2(int64_t obs_dim, int64_t act_dim, int64_t nslot, const Rl2Config& confi
   rewards_ = torch::zeros({T, N}, f);
   cuts_ = torch::zeros({T, N}, f);
   resets_ = torch::zeros({T, N}, f);
-  slot_return_ = torch::zeros({N}, f);
-  set_slot_tasks(std::vector<int>(N, 0), 1);
-}
-
-void Rl2::set_slot_tasks(const std::vector<int>& slot_task, int ntasks) {
-  if (static_cast<int64_t>(slot_task.size()) != nslot_ || ntasks < 1)
-    throw std::invalid_argument("RL^2: " + std::to_string(slot_task.size()) +
-                                " slot tasks for " + std::to_string(nslot_) + " slots");
-  const auto dev = rewards_.device();
-  std::vector<int64_t> ids(slot_task.begin(), slot_task.end());
-  slot_task_ = torch::tensor(ids, torch::kLong).to(dev);
-  const auto f64 = torch::TensorOptions().dtype(torch::kFloat64).device(dev);
-  task_slots_ = torch::zeros({ntasks}, f64).index_add_(
-      0, slot_task_, torch::ones({nslot_}, f64));
-  task_count_ = torch::zeros({ntasks}, f64);
-  task_mean_ = torch::zeros({ntasks}, f64);
-  task_var_ = torch::ones({ntasks}, f64);
-}
-
-torch::Tensor Rl2::task_return_stats() const {
-  return torch::stack({task_count_, task_mean_, task_var_}).to(torch::kCPU);
-}
-
-void Rl2::set_task_return_stats(const torch::Tensor& stats) {
-  if (stats.dim() != 2 || stats.size(0) != 3 || stats.size(1) != task_count_.size(0))
-    throw std::invalid_argument("RL^2: task return statistics of shape [3, " +
-                                std::to_string(task_count_.size(0)) + "] expected");
-  const auto s = stats.to(task_count_.options());
-  task_count_.copy_(s[0]);
-  task_mean_.copy_(s[1]);
-  task_var_.copy_(s[2]);
 }
 
 torch::Tensor Rl2::act(const torch::Tensor& obs) {
@@ -100,7 +66,7 @@ torch::Tensor Rl2::act(const torch::Tensor& obs) {
 void Rl2::observe(const torch::Tensor& reward, const torch::Tensor& done) {
   if (t_ >= c_.horizon) throw std::logic_error("RL^2: more steps than the horizon before update");
   const auto d = done.to(torch::kFloat32);
-  rewards_[t_] = c_.task_reward_norm ? scaled(reward, d) : reward;
+  rewards_[t_] = c_.task_reward_norm ? scale_.scaled(reward, d) : reward;
   prev_reward_ = reward.to(torch::kFloat32);
   prev_done_ = d;
   episodes_ += d;
@@ -108,24 +74,6 @@ void Rl2::observe(const torch::Tensor& reward, const torch::Tensor& done) {
   episodes_ *= 1 - new_trial_;
   cuts_[t_] = new_trial_;
   ++t_;
-}
-
-torch::Tensor Rl2::scaled(const torch::Tensor& reward, const torch::Tensor& done) {
-  // each slot's discounted return so far joins its task's running statistics (rl's
-  // merge_moments), then the reward is divided by its task's return std; the return restarts
-  // after an episode
-  slot_return_ = slot_return_ * c_.gamma + reward.to(slot_return_.dtype());
-  const auto x = slot_return_.to(torch::kFloat64);
-  const auto per = task_slots_.clamp_min(1);
-  const auto bmean = torch::zeros_like(task_mean_).index_add_(0, slot_task_, x) / per;
-  const auto dev = x - bmean.index_select(0, slot_task_);
-  const auto bvar = torch::zeros_like(task_var_).index_add_(0, slot_task_, dev * dev) / per;
-  rl::merge_moments(task_count_, task_mean_, task_var_, task_slots_, bmean, bvar);
-  slot_return_ = slot_return_ * (1 - done);
-  // clipped: early on a task's returns may all be alike (a variance near zero)
-  const auto std = (task_var_ + 1e-8).sqrt().index_select(0, slot_task_);
-  return (reward.to(torch::kFloat64) / std).clamp(-kMaxScaledReward, kMaxScaledReward)
-      .to(rewards_.dtype());
 }
 
 std::vector<double> Rl2::update(const torch::Tensor& obs) {

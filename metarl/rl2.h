@@ -10,6 +10,7 @@
 #include <torch/torch.h>
 
 #include "metarl/recurrent_policy.h"
+#include "metarl/task_scale.h"
 
 namespace bidex::metarl {
 
@@ -47,13 +48,15 @@ class Rl2 {
   torch::Tensor act(const torch::Tensor& obs);
   // The step that followed the last act(): rewards [N] and done flags [N] (episode ends).
   void observe(const torch::Tensor& reward, const torch::Tensor& done);
-  // Each slot's task (0 .. ntasks - 1): task_reward_norm keeps one return scale per task. By
-  // default every slot is task 0.
-  void set_slot_tasks(const std::vector<int>& slot_task, int ntasks);
+  // Each slot's task (0 .. ntasks - 1): task_reward_norm keeps one return scale per task
+  // (task_scale.h). By default every slot is task 0.
+  void set_slot_tasks(const std::vector<int>& slot_task, int ntasks) {
+    scale_.set_slot_tasks(slot_task, ntasks);
+  }
   // Per task: the count, mean and variance of the discounted returns seen so far, [3, ntasks]
   // (float64); checkpoints keep them.
-  torch::Tensor task_return_stats() const;
-  void set_task_return_stats(const torch::Tensor& stats);
+  torch::Tensor task_return_stats() const { return scale_.stats(); }
+  void set_task_return_stats(const torch::Tensor& stats) { scale_.set_stats(stats); }
   // PPO over the rollout of horizon steps; `obs` are the observations after the last one.
   // Returns policy_loss, value_loss, entropy and the KL to the rollout's policy.
   std::vector<double> update(const torch::Tensor& obs);
@@ -67,9 +70,6 @@ class Rl2 {
   torch::optim::Adam& optimizer() { return *opt_; }
 
  private:
-  // task_reward_norm: the rewards [N] divided by their tasks' return std
-  torch::Tensor scaled(const torch::Tensor& reward, const torch::Tensor& done);
-
   Rl2Config c_;
   int64_t nslot_;
   RecurrentPolicy policy_;
@@ -81,9 +81,7 @@ class Rl2 {
   // each step; the memory before step 0
   torch::Tensor inputs_, actions_, means_, logp_, values_, rewards_, cuts_, resets_, hidden0_;
   int t_ = 0;
-  // task_reward_norm: each slot's task [N] (long) and discounted return so far [N]; per task
-  // its slots and the return statistics [ntasks] (float64)
-  torch::Tensor slot_task_, slot_return_, task_slots_, task_count_, task_mean_, task_var_;
+  TaskReturnScale scale_;  // task_reward_norm
 };
 
 }  // namespace bidex::metarl

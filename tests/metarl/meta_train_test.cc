@@ -249,6 +249,148 @@ TEST_CASE("MAML and ProMP adapt each task's policy from its own rows, and not wi
   }
 }
 
+TEST_CASE("MAML's and ProMP's input_norm and task_reward_norm: scale-free inputs and rewards, "
+          "kept by checkpoints",
+          "[metarl]") {
+  metarl::register_algorithms();
+  test::TaskTempDir tmp;
+  const std::string suite = tmp.write("raise-goals.yaml", kRaiseGoals);
+  const int64_t D = 6, A = 2, N = 4;
+  const torch::Device cpu(torch::kCPU);
+  for (const char* algo : {"maml", "promp"}) {
+    INFO(algo);
+    const std::string a = algo;
+    // the critic's initialisation draws from torch's global stream: seeded here, so that two
+    // algorithms made alike start alike
+    auto make = [&](bool input_norm, bool reward_norm, int64_t slots) {
+      torch::manual_seed(1);
+      const auto yaml = tiny_meta(algo, suite,
+                                  {a + ".input_norm=" + (input_norm ? "true" : "false"),
+                                   a + ".task_reward_norm=" + (reward_norm ? "true" : "false")});
+      return rl::make_algorithm(algo, rl::parse_train_config(yaml, "tiny"), D, A, slots, cpu);
+    };
+    // Feeds `steps` steps of observations affine in `x` ([steps, N, D]); two tasks, rewarded
+    // `scale0` and `scale1` times the first action; returns the first update's metrics.
+    auto feed = [&](rl::Algorithm& alg, const torch::Tensor& x, double offset, double mult,
+                    double scale0, double scale1) {
+      alg.set_slot_tasks({0, 0, 1, 1}, 2);
+      std::vector<double> metrics;
+      const auto scale = torch::tensor({scale0, scale0, scale1, scale1}, torch::kFloat32);
+      for (int64_t t = 0; t < x.size(0); ++t) {
+        const auto obs = offset + mult * x[t];
+        const auto act = alg.act(obs);
+        rl::Transition tr;
+        tr.obs = obs;
+        tr.reward = scale * act.select(1, 0).clamp(-1, 1);
+        tr.done = torch::zeros({N});
+        tr.final_ids = torch::empty({0}, torch::kLong);
+        tr.final_obs = torch::empty({0, D});
+        alg.observe(tr);
+        if ((t + 1) % alg.steps_per_update() != 0) continue;
+        const auto m = alg.update(obs);
+        if (metrics.empty()) metrics = m;
+      }
+      return metrics;
+    };
+    torch::manual_seed(11);
+    const auto x = torch::randn({16, N, D});
+    const auto probe = torch::randn({N, D});
+
+    // input_norm: observations 1000 x + 5 act as x does, once both have been seen
+    auto plain = make(true, false, N);
+    torch::manual_seed(2);
+    feed(*plain, x, 0, 1, 1, 1);
+    auto wide = make(true, false, N);
+    torch::manual_seed(2);
+    feed(*wide, x, 5, 1000, 1, 1);
+    CHECK(torch::allclose(plain->actor(probe), wide->actor(5 + 1000 * probe), 1e-3, 1e-4));
+    auto raw = make(false, false, N);
+    CHECK_FALSE(torch::allclose(raw->actor(probe), raw->actor(5 + 1000 * probe), 1e-3, 1e-4));
+    // the statistics are the checkpoint's
+    const std::string ckpt = tmp.file(a + "-norm.ckpt");
+    {
+      torch::serialize::OutputArchive root;
+      wide->save(root);
+      root.save_to(ckpt);
+    }
+    auto loaded = make(true, false, 0);
+    {
+      torch::serialize::InputArchive root;
+      root.load_from(ckpt);
+      loaded->load_actor(root, ckpt);
+    }
+    CHECK(torch::allclose(loaded->actor(5 + 1000 * probe), wide->actor(5 + 1000 * probe)));
+
+    // task_reward_norm: task 0 pays 1000 times the action, task 1 a thousandth of it; the
+    // critic learns scaled returns, and the reported rewards stay the tasks' own
+    auto scaled = make(false, true, N);
+    torch::manual_seed(3);
+    const auto with = feed(*scaled, x, 0, 1, 1000, 0.001);
+    auto unscaled = make(false, false, N);
+    torch::manual_seed(3);
+    const auto without = feed(*unscaled, x, 0, 1, 1000, 0.001);
+    const auto& names = scaled->metric_names();
+    const auto at = [&](const std::string& n) {
+      return std::find(names.begin(), names.end(), n) - names.begin();
+    };
+    INFO("value loss with " << with[at("value_loss")] << ", without " << without[at("value_loss")]);
+    CHECK(with[at("value_loss")] < 100);
+    CHECK(without[at("value_loss")] > 1000);
+    CHECK(with[at("reward_pre")] == Approx(without[at("reward_pre")]).epsilon(1e-6));
+    // its statistics too; a checkpoint without them is refused
+    const std::string sckpt = tmp.file(a + "-scale.ckpt");
+    {
+      torch::serialize::OutputArchive root;
+      scaled->save(root);
+      root.save_to(sckpt);
+    }
+    auto resumed = make(false, true, N);
+    resumed->set_slot_tasks({0, 0, 1, 1}, 2);  // as the trainer does before loading
+    CHECK_NOTHROW([&] {
+      torch::serialize::InputArchive root;
+      root.load_from(sckpt);
+      resumed->load(root, sckpt);
+    }());
+    const std::string uckpt = tmp.file(a + "-unscaled.ckpt");
+    {
+      torch::serialize::OutputArchive root;
+      unscaled->save(root);
+      root.save_to(uckpt);
+    }
+    CHECK_THROWS_WITH(
+        [&] {
+          torch::serialize::InputArchive root;
+          root.load_from(uckpt);
+          resumed->load(root, uckpt);
+        }(),
+        Catch::Contains(uckpt));
+
+    // at evaluation a task's scale comes from its own adaptation rows: rewards a thousand times
+    // larger adapt the policy exactly as much
+    auto adapted = [&](bool reward_norm, float mult) {
+      auto alg = make(false, reward_norm, 0);
+      rl::Adaptive* ad = alg->adaptive();
+      const auto obs = torch::ones({N, D});
+      torch::manual_seed(5);
+      ad->begin({0, 0, 1, 1}, 2);
+      for (int t = 0; t < 16; ++t) {
+        const auto act = ad->explore(obs);
+        rl::Transition tr;
+        tr.obs = obs;
+        tr.reward = mult * torch::tensor({1.f, 1.f, -1.f, -1.f}) * act.select(1, 0);
+        tr.done = torch::full({N}, t % 4 == 3 ? 1.f : 0.f);
+        tr.final_ids = torch::empty({0}, torch::kLong);
+        tr.final_obs = torch::empty({0, D});
+        ad->observe(tr, torch::ones({N}));
+      }
+      ad->adapt(1);
+      return ad->exploit(obs);
+    };
+    CHECK(torch::allclose(adapted(true, 1), adapted(true, 1000), 1e-4, 1e-5));
+    CHECK_FALSE(torch::allclose(adapted(false, 1), adapted(false, 1000), 1e-4, 1e-5));
+  }
+}
+
 TEST_CASE("meta-RL refuses suites without a held-out test split, unknown splits and non-meta "
           "runs, and bad settings name their key",
           "[metarl]") {
