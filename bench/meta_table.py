@@ -5,8 +5,9 @@ random-SUITE-{train,test}.json (bidex eval --random --suite S --split P --json),
 before and after adaptation per split, next to the seed paper's ProMP, random and single-task
 ground truth, and the normalised score after adaptation per split: the mean over the tasks with
 both references in configs/registry/references.yaml (or $BIDEX_REFERENCES) of (return - random) /
-(ground truth - random), with how many of the split's tasks it covers. Writes DIR/table.md and
-DIR/summary.json.
+(ground truth - random), with how many of the split's tasks it covers. The original's ProMP row
+gets its normalised score from the original's own random and ground-truth rows (its table reports
+suite means, so the score is of the means). Writes DIR/table.md and DIR/summary.json.
 Usage: bench/meta_table.py DIR"""
 import csv
 import json
@@ -73,7 +74,11 @@ def main(d):
                     f" | {fmt(rnd['test'] and rnd['test']['mean_return'])} | | | | |")
         for k in ("random", "promp", "ground_truth"):
             tr, te = ORIGINAL[k][s]
-            rows.append(f"| {s} | {k} (original) | {tr} | {te} | | | | |")
+            own = ""
+            if k == "promp":
+                (rtr, rte), (gtr, gte) = ORIGINAL["random"][s], ORIGINAL["ground_truth"][s]
+                own = f"{(tr - rtr) / (gtr - rtr):.3f} | {(te - rte) / (gte - rte):.3f}"
+            rows.append(f"| {s} | {k} (original) | {tr} | {te} | | | {own or ' |'} |")
         for a in algos:
             ev = {p: load(os.path.join(d, f"{s}-{a}", f"eval-{p}.json")) for p in ("train", "test")}
             run = load(os.path.join(d, f"{s}-{a}", "summary.json")) or last_row(d, f"{s}-{a}")
