@@ -314,13 +314,15 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
       torch::NoGradGuard ng;
       auto rewards = stack(&EvalStep::reward);
       if (c_.task_reward_norm) {
-        // a held-out task has no statistics: each task's scale from its own kept rows
+        // a held-out task has no statistics: each task's scale is the std of its own kept
+        // rows' returns (1 with fewer than two rows)
+        const auto returns = discounted_returns(rewards, dones, c_.gamma);
         auto per_slot = torch::ones_like(rewards[0]);
         for (const auto& idx : eval_rows_) {
-          if (idx.numel() == 0) continue;
-          const double s = return_std(rewards.index_select(1, idx), dones.index_select(1, idx),
-                                      keep.index_select(1, idx), c_.gamma);
-          per_slot.index_fill_(0, idx, 1.0 / s);
+          const auto kept = returns.index_select(1, idx).index({keep.index_select(1, idx) > 0.5});
+          if (kept.numel() < 2) continue;
+          const double var = kept.var(/*unbiased=*/false).item<double>();
+          per_slot.index_fill_(0, idx, 1.0 / std::sqrt(var + 1e-8));
         }
         rewards = (rewards * per_slot).clamp(-TaskReturnScale::kMaxScaled,
                                              TaskReturnScale::kMaxScaled);

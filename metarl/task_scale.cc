@@ -63,20 +63,18 @@ torch::Tensor TaskReturnScale::scaled(const torch::Tensor& reward, const torch::
   return (r / std).clamp(-kMaxScaled, kMaxScaled).to(reward.scalar_type());
 }
 
-double return_std(const torch::Tensor& rewards, const torch::Tensor& dones,
-                  const torch::Tensor& keep, double gamma) {
+torch::Tensor discounted_returns(const torch::Tensor& rewards, const torch::Tensor& dones,
+                                 double gamma) {
   torch::NoGradGuard ng;
   const auto r = rewards.to(torch::kFloat64), d = dones.to(torch::kFloat64);
+  auto out = torch::empty_like(r);
   auto g = torch::zeros_like(r[0]);
-  std::vector<torch::Tensor> returns;
   for (int64_t t = 0; t < r.size(0); ++t) {
     g = g * gamma + r[t];
-    returns.push_back(g);
+    out[t] = g;
     g = g * (1 - d[t]);
   }
-  const auto kept = torch::stack(returns).index({keep > 0.5});
-  if (kept.numel() < 2) return 1.0;
-  return std::sqrt(kept.var(/*unbiased=*/false).item<double>() + 1e-8);
+  return out;
 }
 
 }  // namespace bidex::metarl

@@ -33,10 +33,10 @@ class TaskReturnScale {
   torch::Tensor task_slots_, count_, mean_, var_;          // [ntasks] float64
 };
 
-// The same scale measured on one batch of rows alone (evaluation, where a held-out task has no
-// statistics): rewards and dones [T, N], rows that count `keep` [T, N] (0 or 1); the std of the
-// kept rows' discounted returns so far, each slot's return restarting after its episode ends.
-double return_std(const torch::Tensor& rewards, const torch::Tensor& dones,
-                  const torch::Tensor& keep, double gamma);
+// For the same scale measured on one batch of rows (evaluation, where a held-out task has no
+// statistics): rewards and dones [T, N] -> each slot's discounted return so far [T, N] (float64),
+// restarting after its episode ends, as TaskReturnScale accumulates it.
+torch::Tensor discounted_returns(const torch::Tensor& rewards, const torch::Tensor& dones,
+                                 double gamma);
 
 }  // namespace bidex::metarl
