@@ -221,7 +221,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     rl::write_part(root, "optimizer", *opt_);
     root.write("kl_coef", eta_);
     if (obs_norm_) rl::write_part(root, "obs_norm", *obs_norm_);
-    if (scale_) root.write("task_return_stats", scale_->stats());
+    if (scale_) scale_->save(root);
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
@@ -233,11 +233,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
       root.read("kl_coef", eta);
       eta_.copy_(eta.to(torch::kCPU));
       read_obs_norm(root, path);
-      if (scale_) {
-        torch::Tensor stats;
-        root.read("task_return_stats", stats);
-        scale_->set_stats(stats);
-      }
+      if (scale_) scale_->load(root);
     });
   }
 

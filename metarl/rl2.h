@@ -53,10 +53,8 @@ class Rl2 {
   void set_slot_tasks(const std::vector<int>& slot_task, int ntasks) {
     scale_.set_slot_tasks(slot_task, ntasks);
   }
-  // Per task: the count, mean and variance of the discounted returns seen so far, [3, ntasks]
-  // (float64); checkpoints keep them.
-  torch::Tensor task_return_stats() const { return scale_.stats(); }
-  void set_task_return_stats(const torch::Tensor& stats) { scale_.set_stats(stats); }
+  // task_reward_norm's per-task return statistics; checkpoints keep them.
+  TaskReturnScale& reward_scale() { return scale_; }
   // PPO over the rollout of horizon steps; `obs` are the observations after the last one.
   // Returns policy_loss, value_loss, entropy and the KL to the rollout's policy.
   std::vector<double> update(const torch::Tensor& obs);

@@ -41,18 +41,14 @@ class Rl2Algorithm final : public rl::Algorithm, public rl::Adaptive {
   void save(torch::serialize::OutputArchive& root) override {
     rl::write_part(root, "recurrent_policy", *policy_);
     rl::write_part(root, "optimizer", learner_->optimizer());
-    if (c_.task_reward_norm) root.write("task_return_stats", learner_->task_return_stats());
+    if (c_.task_reward_norm) learner_->reward_scale().save(root);
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     rl::read_checked(path, "does not fit this run's networks", [&] {
       rl::read_module(root, "recurrent_policy", *policy_, path, "this run's recurrent policy");
       rl::read_optimizer(root, "optimizer", learner_->optimizer());
-      if (c_.task_reward_norm) {
-        torch::Tensor stats;
-        root.read("task_return_stats", stats);
-        learner_->set_task_return_stats(stats);
-      }
+      if (c_.task_reward_norm) learner_->reward_scale().load(root);
     });
   }
 

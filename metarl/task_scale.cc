@@ -48,6 +48,16 @@ void TaskReturnScale::set_stats(const torch::Tensor& stats) {
   var_.copy_(s[2]);
 }
 
+void TaskReturnScale::save(torch::serialize::OutputArchive& root) const {
+  root.write("task_return_stats", stats());
+}
+
+void TaskReturnScale::load(torch::serialize::InputArchive& root) {
+  torch::Tensor s;
+  root.read("task_return_stats", s);
+  set_stats(s);
+}
+
 torch::Tensor TaskReturnScale::scaled(const torch::Tensor& reward, const torch::Tensor& done) {
   torch::NoGradGuard ng;
   const auto r = reward.to(torch::kFloat64);

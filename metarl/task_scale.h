@@ -25,6 +25,9 @@ class TaskReturnScale {
   // checkpoints keep them.
   torch::Tensor stats() const;
   void set_stats(const torch::Tensor& stats);
+  // The statistics as a checkpoint's entry `task_return_stats`, and back.
+  void save(torch::serialize::OutputArchive& root) const;
+  void load(torch::serialize::InputArchive& root);
 
  private:
   int64_t nslot_;

@@ -9,15 +9,15 @@
 
 namespace bidex::rl {
 
-// Running mean and variance of vectors (Chan's parallel update, in float64), and the
-// normalisation clamp((x - mean) / sqrt(var + eps), -clip, clip). Its state is buffers, so it is
-// saved and loaded with the module that owns it.
 // Chan et al.'s parallel update of running moments, element-wise: the running count, mean and
 // population variance (updated in place) merged with a batch's n rows, their mean and variance.
 // Where the merged count is 0 the moments stay as they are.
 void merge_moments(torch::Tensor& count, torch::Tensor& mean, torch::Tensor& var,
                    const torch::Tensor& n, const torch::Tensor& bmean, const torch::Tensor& bvar);
 
+// Running mean and variance of vectors (Chan's parallel update, in float64), and the
+// normalisation clamp((x - mean) / sqrt(var + eps), -clip, clip). Its state is buffers, so it is
+// saved and loaded with the module that owns it.
 class RunningNormImpl : public torch::nn::Module {
  public:
   explicit RunningNormImpl(int64_t dim, double clip = 5.0);

@@ -51,6 +51,18 @@ std::string tiny_meta(const std::string& algo, const std::string& suite,
   return rl::resolve_train_yaml(rl::default_train_config(algo), algo, suite, o);
 }
 
+// A step's transition with no episode cut by the time limit.
+rl::Transition transition(const torch::Tensor& obs, const torch::Tensor& reward,
+                          const torch::Tensor& done) {
+  rl::Transition tr;
+  tr.obs = obs;
+  tr.reward = reward;
+  tr.done = done;
+  tr.final_ids = torch::empty({0}, torch::kLong);
+  tr.final_obs = torch::empty({0, obs.size(1)});
+  return tr;
+}
+
 }  // namespace
 
 TEST_CASE("maml, promp and rl2 are meta algorithms of the registry; registering twice is refused",
@@ -222,14 +234,10 @@ TEST_CASE("MAML and ProMP adapt each task's policy from its own rows, and not wi
       ad->begin(tasks, 2);
       for (int t = 0; t < 16; ++t) {
         const auto a = ad->explore(obs);
-        rl::Transition tr;
-        tr.obs = obs;
         const auto sign = torch::tensor({1.f, 1.f, -1.f, -1.f});
-        tr.reward = sign * a.select(1, 0);
-        tr.done = torch::full({N}, t % 4 == 3 ? 1.f : 0.f);
-        tr.final_ids = torch::empty({0}, torch::kLong);
-        tr.final_obs = torch::empty({0, D});
-        ad->observe(tr, torch::ones({N}));
+        ad->observe(transition(obs, sign * a.select(1, 0),
+                               torch::full({N}, t % 4 == 3 ? 1.f : 0.f)),
+                    torch::ones({N}));
       }
       ad->adapt(steps);
       return ad->exploit(obs);
@@ -279,13 +287,7 @@ TEST_CASE("MAML's and ProMP's input_norm and task_reward_norm: scale-free inputs
       for (int64_t t = 0; t < x.size(0); ++t) {
         const auto obs = offset + mult * x[t];
         const auto act = alg.act(obs);
-        rl::Transition tr;
-        tr.obs = obs;
-        tr.reward = scale * act.select(1, 0).clamp(-1, 1);
-        tr.done = torch::zeros({N});
-        tr.final_ids = torch::empty({0}, torch::kLong);
-        tr.final_obs = torch::empty({0, D});
-        alg.observe(tr);
+        alg.observe(transition(obs, scale * act.select(1, 0).clamp(-1, 1), torch::zeros({N})));
         if ((t + 1) % alg.steps_per_update() != 0) continue;
         const auto m = alg.update(obs);
         if (metrics.empty()) metrics = m;
@@ -375,13 +377,9 @@ TEST_CASE("MAML's and ProMP's input_norm and task_reward_norm: scale-free inputs
       ad->begin({0, 0, 1, 1}, 2);
       for (int t = 0; t < 16; ++t) {
         const auto act = ad->explore(obs);
-        rl::Transition tr;
-        tr.obs = obs;
-        tr.reward = mult * torch::tensor({1.f, 1.f, -1.f, -1.f}) * act.select(1, 0);
-        tr.done = torch::full({N}, t % 4 == 3 ? 1.f : 0.f);
-        tr.final_ids = torch::empty({0}, torch::kLong);
-        tr.final_obs = torch::empty({0, D});
-        ad->observe(tr, torch::ones({N}));
+        ad->observe(transition(obs, mult * torch::tensor({1.f, 1.f, -1.f, -1.f}) * act.select(1, 0),
+                               torch::full({N}, t % 4 == 3 ? 1.f : 0.f)),
+                    torch::ones({N}));
       }
       ad->adapt(1);
       return ad->exploit(obs);

@@ -147,7 +147,7 @@ TEST_CASE("RL^2's task_reward_norm keeps one return scale per task", "[metarl][r
   double mean = 0, var = 0;
   for (double x : g) mean += x / 4;
   for (double x : g) var += (x - mean) * (x - mean) / 4;
-  const auto s = rl2.task_return_stats();
+  const auto s = rl2.reward_scale().stats();
   REQUIRE(s.sizes() == torch::IntArrayRef({3, 2}));
   CHECK(s[0][0].item<double>() == 16);  // 8 steps of 2 slots
   CHECK(s[1][0].item<double>() == Approx(1000 * mean).epsilon(1e-6));
@@ -164,9 +164,9 @@ TEST_CASE("RL^2's task_reward_norm keeps one return scale per task", "[metarl][r
   // the statistics go to a checkpoint and come back
   metarl::Rl2 other(3, 1, 4, c, torch::Device(torch::kCPU));
   other.set_slot_tasks({0, 1, 0, 1}, 2);
-  other.set_task_return_stats(s);
-  CHECK(torch::equal(other.task_return_stats(), s));
-  CHECK_THROWS_AS(other.set_task_return_stats(torch::zeros({3, 5})), std::invalid_argument);
+  other.reward_scale().set_stats(s);
+  CHECK(torch::equal(other.reward_scale().stats(), s));
+  CHECK_THROWS_AS(other.reward_scale().set_stats(torch::zeros({3, 5})), std::invalid_argument);
   CHECK_THROWS_AS(other.set_slot_tasks({0, 1}, 2), std::invalid_argument);
 }
 
