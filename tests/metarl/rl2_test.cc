@@ -164,7 +164,15 @@ TEST_CASE("RL^2's task_reward_norm keeps one return scale per task", "[metarl][r
   // the statistics go to a checkpoint and come back
   metarl::Rl2 other(3, 1, 4, c, torch::Device(torch::kCPU));
   other.set_slot_tasks({0, 1, 0, 1}, 2);
-  other.reward_scale().set_stats(s);
+  {
+    std::stringstream buf;
+    torch::serialize::OutputArchive out;
+    rl2.reward_scale().save(out);
+    out.save_to(buf);
+    torch::serialize::InputArchive in;
+    in.load_from(buf);
+    other.reward_scale().load(in);
+  }
   CHECK(torch::equal(other.reward_scale().stats(), s));
   CHECK_THROWS_AS(other.reward_scale().set_stats(torch::zeros({3, 5})), std::invalid_argument);
   CHECK_THROWS_AS(other.set_slot_tasks({0, 1}, 2), std::invalid_argument);
