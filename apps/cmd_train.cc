@@ -540,20 +540,26 @@ void add_eval_command(CLI::App& app) {
     std::string run, checkpoint, json, task, suite, task_config, registry, split;
     int episodes = 100, threads = 0, adapt_episodes = 1, adapt_steps = 1;
     uint64_t seed = 12345;
-    bool random = false, set_reference = false, no_registry = false;
+    bool random = false, zero = false, set_reference = false, no_registry = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
-      "eval", "Evaluate a trained policy (its mean action), or a random policy: mean return and "
-              "success rate over episodes (per task for a suite)");
+      "eval", "Evaluate a trained policy (its mean action), a random policy or the zero action: "
+              "mean return and success rate over episodes (per task for a suite)");
   cmd->add_option("--run", o->run, "Run folder of bidex train");
   cmd->add_option("--checkpoint", o->checkpoint, "Checkpoint file (default: the run's newest)");
   cmd->add_flag("--random", o->random,
                 "Evaluate a random policy (actions uniform in [-1, 1]) on --task or --suite");
-  cmd->add_option("--task", o->task, "Task id (with --random)");
+  cmd->add_flag("--zero", o->zero,
+                "Evaluate the zero action (every action component 0: no base force, each joint "
+                "at its task's action-0 target) on --task or --suite, a baseline beside --random")
+      ->excludes("--random");
+  cmd->add_option("--task", o->task, "Task id (with --random or --zero)");
   cmd->add_option("--suite", o->suite,
-                  "Suite id or file (with --random): each task of its train split (or --split)");
-  cmd->add_option("--task-config", o->task_config, "Task YAML (with --random --task; default: the task's own)");
+                  "Suite id or file (with --random or --zero): each task of its train split (or "
+                  "--split)");
+  cmd->add_option("--task-config", o->task_config,
+                  "Task YAML (with --random or --zero and --task; default: the task's own)");
   cmd->add_flag("--set-reference", o->set_reference,
                 "With --random: store each task's mean return as its 'random' reference score in "
                 "the registry");
@@ -570,7 +576,8 @@ void add_eval_command(CLI::App& app) {
       "Meta-RL runs (maml, promp, rl2): the suite's split to adapt to, train or test (default "
       "test); each task is scored before and after adaptation, --episodes slots per task (per "
       "goal of a goal distribution), and normalised with the registry's references (random 0, "
-      "ground truth 1). With --random --suite: the split to play (default train)");
+      "ground truth 1). With --random or --zero and --suite: the split to play (default "
+      "train)");
   cmd->add_option("--adapt-episodes", o->adapt_episodes,
                   "Meta-RL: episodes per slot that adaptation learns from")
       ->check(CLI::Range(1, 1000))->capture_default_str()->needs(split);
@@ -582,17 +589,24 @@ void add_eval_command(CLI::App& app) {
   cmd->footer("Examples:\n"
               "  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200\n"
               "  bidex eval --random --task hand_over --episodes 1000 --set-reference\n"
+              "  bidex eval --zero --suite ML20 --split test --episodes 8\n"
               "  bidex eval --run runs/ML1-promp-20261124-070000-s0 --split test "
               "--adapt-episodes 2");
   cmd->callback([o] {
     rl::EvalResult r;
     std::string what, checkpoint, target;
     int64_t update = 0;
-    if (o->random) {
+    if (o->random || o->zero) {
+      const std::string flag = o->random ? "--random" : "--zero";
       if (!o->run.empty() || !o->checkpoint.empty())
-        throw Error("eval: --random evaluates a random policy on --task or --suite, not a run");
+        throw Error("eval: " + flag + " evaluates " +
+                    (o->random ? "a random policy" : "the zero action") +
+                    " on --task or --suite, not a run");
       if (o->task.empty() == o->suite.empty())
-        throw Error("eval: --random needs one of --task ID and --suite ID");
+        throw Error("eval: " + flag + " needs one of --task ID and --suite ID");
+      if (o->zero && o->set_reference)
+        throw Error("eval: --set-reference stores a random policy's score as the 'random' "
+                    "reference; the zero action is not one (use --random)");
       rl::TrainConfig c;
       c.task = o->task;
       c.suite = o->suite;
@@ -601,14 +615,17 @@ void add_eval_command(CLI::App& app) {
       if (!o->split.empty() && c.suite.empty())
         throw Error("eval: --split picks a suite's split: give --suite (or --run of a meta-RL "
                     "run)");
-      r = rl::evaluate_random(c, o->episodes, o->seed, o->threads,
-                              o->split.empty() ? "train" : o->split);
+      const std::string split = o->split.empty() ? "train" : o->split;
+      r = o->random ? rl::evaluate_random(c, o->episodes, o->seed, o->threads, split)
+                    : rl::evaluate_zero(c, o->episodes, o->seed, o->threads, split);
       target = c.target();
-      what = target + ", random policy";
+      what = target + (o->random ? ", random policy" : ", zero action");
     } else {
-      if (o->run.empty()) throw Error("eval: give --run DIR (or --random with --task or --suite)");
+      if (o->run.empty())
+        throw Error("eval: give --run DIR (or --random or --zero with --task or --suite)");
       if (!o->task.empty() || !o->suite.empty() || o->set_reference || !o->task_config.empty())
-        throw Error("eval: --task, --suite, --task-config and --set-reference go with --random");
+        throw Error("eval: --task, --suite, --task-config and --set-reference go with --random "
+                    "(--task, --suite and --task-config also with --zero)");
       rl::LoadedPolicy policy(o->run, o->checkpoint);
       if (!o->split.empty() || policy.adaptive()) {  // meta-RL's protocol
         eval_meta(*o, policy);
@@ -657,7 +674,7 @@ void add_eval_command(CLI::App& app) {
                        {"mean_return", e.mean_return}, {"success_rate", e.success}});
       nlohmann::json j = {{"run", o->run},
                           {"task", target},
-                          {"policy", o->random ? "random" : "checkpoint"},
+                          {"policy", o->random ? "random" : o->zero ? "zero" : "checkpoint"},
                           {"checkpoint", checkpoint},
                           {"update", update},
                           {"episodes", r.episodes},

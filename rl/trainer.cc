@@ -743,6 +743,15 @@ EvalResult evaluate_random(const TrainConfig& c, int episodes, uint64_t seed, in
   return evaluate_actions(c, episodes, seed, threads, make, split);
 }
 
+EvalResult evaluate_zero(const TrainConfig& c, int episodes, uint64_t seed, int threads,
+                         const std::string& split) {
+  auto make = [](const taskpack::TaskPack& env) -> Actor {
+    const int A = env.act_dim();
+    return [A](const float*, int n, float* act) { std::fill_n(act, int64_t(n) * A, 0.0f); };
+  };
+  return evaluate_actions(c, episodes, seed, threads, make, split);
+}
+
 EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, int threads,
                             const ActorFactory& make_actor, const std::string& split) {
   taskpack::PackOptions po;

@@ -148,6 +148,12 @@ EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threa
 EvalResult evaluate_random(const TrainConfig& config, int episodes, uint64_t seed, int threads,
                            const std::string& split = "train");
 
+// The same with every action component 0 (bidex play --policy zero): no base force or torque,
+// each joint at the target that action 0 means in its task. A baseline for tasks whose random
+// score comes from how long a random policy keeps an episode going (ML20's lift_underarm).
+EvalResult evaluate_zero(const TrainConfig& config, int episodes, uint64_t seed, int threads,
+                         const std::string& split = "train");
+
 // The same with any actor: `make_actor` sees the pack once and returns the function that maps
 // n observation rows to n action rows.
 using Actor = std::function<void(const float* obs, int n, float* actions)>;

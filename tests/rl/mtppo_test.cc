@@ -3,6 +3,10 @@
 // widened observation reaching the networks, evaluation per task, resume, and the bad inputs.
 #include "tests/rl/rl_fixture.h"
 
+#include <cmath>
+
+#include <nlohmann/json.hpp>
+
 #include "core/error.h"
 #include "registry/registry.h"
 #include "rl/checkpoint.h"
@@ -182,6 +186,51 @@ TEST_CASE("bidex train and eval reject suite mistakes with clear messages", "[rl
   INFO(rs.out);
   CHECK(rs.rc == 0);
   CHECK(rs.out.find("two_catch_underarm") != std::string::npos);
+}
+
+TEST_CASE("bidex eval --zero plays the zero action as a baseline beside --random", "[rl][mtppo]") {
+  test::TaskTempDir tmp;
+  // door_close_outward: a random policy ends its episodes early (the paper's reward is negative
+  // far from the handles, and the task ends when a palm strays), the zero action never does
+  auto score = [&](const std::string& flag, int seed) {
+    const std::string json = tmp.file(flag + std::to_string(seed) + ".json");
+    auto r = test::bidex_run("eval " + flag + " --task door_close_outward --episodes 2 "
+                             "--threads 1 --seed " + std::to_string(seed) + " --json " + json);
+    INFO(r.out);
+    REQUIRE(r.rc == 0);
+    return nlohmann::json::parse(read_file(json));
+  };
+  const auto zero = score("--zero", 1);
+  CHECK(zero["policy"] == "zero");
+  CHECK(zero["mean_length"].get<double>() == 250.0);  // every episode runs to the time limit
+  CHECK(std::isfinite(zero["mean_return"].get<double>()));
+  // the task resets without noise, so the zero action plays the same episode for any seed ...
+  CHECK(score("--zero", 2)["mean_return"].get<double>() == zero["mean_return"].get<double>());
+  // ... and a random policy's are others
+  const auto rnd = score("--random", 1);
+  CHECK(rnd["policy"] == "random");
+  CHECK(rnd["mean_length"].get<double>() < 250.0);
+  CHECK(rnd["mean_return"].get<double>() != zero["mean_return"].get<double>());
+
+  // per task of a suite's split
+  auto suite = test::bidex_run("eval --zero --suite ML4 --split train --episodes 1 --threads 1");
+  INFO(suite.out);
+  CHECK(suite.rc == 0);
+  CHECK(suite.out.find("ML4, zero action: 3 episodes") != std::string::npos);
+  CHECK(suite.out.find("catch_abreast") != std::string::npos);
+
+  // what --zero does not take
+  auto both = test::bidex_run("eval --zero --random --task hand_over");
+  CHECK(both.rc != 0);
+  CHECK(both.out.find("excludes") != std::string::npos);
+  auto ref = test::bidex_run("eval --zero --task hand_over --set-reference --registry " +
+                             tmp.file("reg.sqlite"));
+  CHECK(ref.rc == 2);
+  CHECK(ref.out.find("the zero action is not one") != std::string::npos);
+  CHECK_FALSE(test::file_exists(tmp.file("reg.sqlite")));
+  auto run = test::bidex_run("eval --zero --run " + tmp.file("x"));
+  CHECK(run.rc == 2);
+  CHECK(run.out.find("not a run") != std::string::npos);
 }
 
 TEST_CASE("mttrpo trains TRPO on a suite's pack and evaluates per task", "[rl][mtppo][trpo]") {
