@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """The meta-RL table beside the original's: for each suite and algorithm of a results folder
-(bench/gpu_learn_run.sh meta: SUITE-ALGO/eval-{train,test}.json) and the random policy's
-random-SUITE-{train,test}.json (bidex eval --random --suite S --split P --json), the mean return
-before and after adaptation per split, next to the seed paper's ProMP, random and single-task
-ground truth, and the normalised score after adaptation per split: the mean over the tasks with
-both references in configs/registry/references.yaml (or $BIDEX_REFERENCES) of (return - random) /
-(ground truth - random), with how many of the split's tasks it covers. The original's ProMP row
-gets its normalised score from the original's own random and ground-truth rows (its table reports
-suite means, so the score is of the means). Writes DIR/table.md and DIR/summary.json.
+(bench/gpu_learn_run.sh meta: SUITE-ALGO/eval-{train,test}.json), the random policy's
+random-SUITE-{train,test}.json (bidex eval --random --suite S --split P --json) and the zero
+action's zero-SUITE-{train,test}.json (bidex eval --zero, likewise, with its normalised score):
+the mean return before and after adaptation per split, next to the seed paper's ProMP, random and
+single-task ground truth, and the normalised score after adaptation per split: the mean over the
+tasks with both references in configs/registry/references.yaml (or $BIDEX_REFERENCES) of
+(return - random) / (ground truth - random), with how many of the split's tasks it covers. The
+original's ProMP row gets its normalised score from the original's own random and ground-truth
+rows (its table reports suite means, so the score is of the means). Writes DIR/table.md and
+DIR/summary.json.
 Usage: bench/meta_table.py DIR"""
 import csv
 import json
@@ -72,6 +74,17 @@ def main(d):
         rnd = {p: load(os.path.join(d, f"random-{s}-{p}.json")) for p in ("train", "test")}
         rows.append(f"| {s} | random (ours) | {fmt(rnd['train'] and rnd['train']['mean_return'])}"
                     f" | {fmt(rnd['test'] and rnd['test']['mean_return'])} | | | | |")
+        zero = {p: load(os.path.join(d, f"zero-{s}-{p}.json")) for p in ("train", "test")}
+        if any(zero.values()):
+            zn = {p: normalised(zero[p], refs, "mean_return") for p in zero}
+            cell = lambda n: "-" if n[0] is None else f"{n[0]:.3f} ({n[1]} of {n[2]})"
+            rows.append(f"| {s} | zero action (ours) | "
+                        f"{fmt(zero['train'] and zero['train']['mean_return'])} | "
+                        f"{fmt(zero['test'] and zero['test']['mean_return'])} | | | "
+                        f"{cell(zn['train'])} | {cell(zn['test'])} |")
+            summary.setdefault("zero_action", {})[s] = {
+                p: {"mean_return": zero[p] and zero[p]["mean_return"], "normalised": zn[p][0],
+                    "tasks": zn[p][1], "of": zn[p][2]} for p in zero}
         for k in ("random", "promp", "ground_truth"):
             tr, te = ORIGINAL[k][s]
             own = ""
