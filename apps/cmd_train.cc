@@ -596,11 +596,13 @@ void add_eval_command(CLI::App& app) {
     rl::EvalResult r;
     std::string what, checkpoint, target;
     int64_t update = 0;
-    if (o->random || o->zero) {
-      const std::string flag = o->random ? "--random" : "--zero";
+    // what is evaluated: a baseline policy (--random, --zero) on a task or suite, or a run's
+    const std::string policy = o->random ? "random" : o->zero ? "zero" : "checkpoint";
+    if (policy != "checkpoint") {
+      const std::string flag = "--" + policy;
+      const std::string label = o->random ? "random policy" : "zero action";
       if (!o->run.empty() || !o->checkpoint.empty())
-        throw Error("eval: " + flag + " evaluates " +
-                    (o->random ? "a random policy" : "the zero action") +
+        throw Error("eval: " + flag + " evaluates the " + label +
                     " on --task or --suite, not a run");
       if (o->task.empty() == o->suite.empty())
         throw Error("eval: " + flag + " needs one of --task ID and --suite ID");
@@ -619,7 +621,7 @@ void add_eval_command(CLI::App& app) {
       r = o->random ? rl::evaluate_random(c, o->episodes, o->seed, o->threads, split)
                     : rl::evaluate_zero(c, o->episodes, o->seed, o->threads, split);
       target = c.target();
-      what = target + (o->random ? ", random policy" : ", zero action");
+      what = target + ", " + label;
     } else {
       if (o->run.empty())
         throw Error("eval: give --run DIR (or --random or --zero with --task or --suite)");
@@ -674,7 +676,7 @@ void add_eval_command(CLI::App& app) {
                        {"mean_return", e.mean_return}, {"success_rate", e.success}});
       nlohmann::json j = {{"run", o->run},
                           {"task", target},
-                          {"policy", o->random ? "random" : o->zero ? "zero" : "checkpoint"},
+                          {"policy", policy},
                           {"checkpoint", checkpoint},
                           {"update", update},
                           {"episodes", r.episodes},
