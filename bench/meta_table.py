@@ -50,15 +50,21 @@ def references():
     return {t: (r, gt.get(t)) for t, r in rnd.items()}, os.path.relpath(path)
 
 
-def normalised(ev, refs, key):
-    """(mean normalised score of an evaluation's entries with both references, count, entries)"""
-    if not ev:
-        return None, 0, 0
+def task_scores(ev, refs, key):
+    """[(label, normalised score)] of an evaluation's entries with both references"""
     scores = []
     for e in ev["per_task"]:
         r, g = refs.get(e["task"], (None, None))
         if r is not None and g is not None and g != r:
-            scores.append((e[key] - r) / (g - r))
+            scores.append((e["label"], (e[key] - r) / (g - r)))
+    return scores
+
+
+def normalised(ev, refs, key):
+    """(mean normalised score of an evaluation's entries with both references, count, entries)"""
+    if not ev:
+        return None, 0, 0
+    scores = [v for _, v in task_scores(ev, refs, key)]
     return (sum(scores) / len(scores) if scores else None), len(scores), len(ev["per_task"])
 
 
@@ -70,6 +76,7 @@ def main(d):
     rows, summary = [], {"what": __doc__.split("\n")[0], "original": ORIGINAL, "runs": [],
                          "references": refs_path}
     fmt = lambda v: "-" if v is None else f"{v:.3g}"
+    cell = lambda n: "-" if n[0] is None else f"{n[0]:.3f} ({n[1]} of {n[2]})"
     for s in suites:
         rnd = {p: load(os.path.join(d, f"random-{s}-{p}.json")) for p in ("train", "test")}
         rows.append(f"| {s} | random (ours) | {fmt(rnd['train'] and rnd['train']['mean_return'])}"
@@ -77,14 +84,15 @@ def main(d):
         zero = {p: load(os.path.join(d, f"zero-{s}-{p}.json")) for p in ("train", "test")}
         if any(zero.values()):
             zn = {p: normalised(zero[p], refs, "mean_return") for p in zero}
-            cell = lambda n: "-" if n[0] is None else f"{n[0]:.3f} ({n[1]} of {n[2]})"
             rows.append(f"| {s} | zero action (ours) | "
                         f"{fmt(zero['train'] and zero['train']['mean_return'])} | "
                         f"{fmt(zero['test'] and zero['test']['mean_return'])} | | | "
                         f"{cell(zn['train'])} | {cell(zn['test'])} |")
             summary.setdefault("zero_action", {})[s] = {
                 p: {"mean_return": zero[p] and zero[p]["mean_return"], "normalised": zn[p][0],
-                    "tasks": zn[p][1], "of": zn[p][2]} for p in zero}
+                    "tasks": zn[p][1], "of": zn[p][2],
+                    "per_task": dict(task_scores(zero[p], refs, "mean_return")) if zero[p] else {}}
+                for p in zero}
         for k in ("random", "promp", "ground_truth"):
             tr, te = ORIGINAL[k][s]
             own = ""
@@ -101,7 +109,6 @@ def main(d):
             before = {p: ev[p] and ev[p]["return_before"] for p in ev}
             steps = f"{run['steps'] / 1e6:.1f}M" if run else "-"
             norm = {p: normalised(ev[p], refs, "return_after") for p in ev}
-            cell = lambda n: "-" if n[0] is None else f"{n[0]:.3f} ({n[1]} of {n[2]})"
             rows.append(f"| {s} | {a} (ours, {steps} slot-steps) | {fmt(after['train'])} | "
                         f"{fmt(after['test'])} | {fmt(before['train'])} | {fmt(before['test'])} | "
                         f"{cell(norm['train'])} | {cell(norm['test'])} |")
