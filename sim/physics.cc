@@ -29,6 +29,19 @@ void one_of(const YamlView& v, const std::string& value,
   v.fail("one of " + list, "'" + value + "'");
 }
 
+// The tasks count in control steps of 1/60 s (the original's rate): a physics step whose
+// substeps do not add up to one is refused, at the substeps key where the node has one.
+void check_control_step(const YamlView& n, double timestep, int substeps) {
+  if (std::abs(timestep * substeps - kControlDt) <= 1e-9 * kControlDt) return;
+  std::ostringstream want, got;
+  want << "timestep x substeps = 1/60 s (the control step), e.g. timestep "
+       << kControlDt / substeps << " for " << substeps << " substeps";
+  got << timestep << " x " << substeps << " = " << timestep * substeps << " s";
+  auto at = n.maybe("substeps");
+  if (!at) at = n.maybe("timestep");
+  (at ? *at : n).fail(want.str(), got.str());
+}
+
 }  // namespace
 
 std::string default_physics_path() { return data_dir() + "/configs/sim/physics.yaml"; }
@@ -39,7 +52,7 @@ PhysicsOptions load_physics(const std::string& path) {
 
 PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   n.allow_keys({"timestep", "substeps", "integrator", "solver", "iterations", "tolerance", "cone",
-                "contact_solref", "contact_solimp", "coupling_solref", "coupling_solimp",
+                "contact_solref", "contact_solimp", "coupling_solref", "coupling_solimp", "refsafe",
                 "jacobian", "gravity_free_hands", "memory", "max_speed", "gpu"});
   auto pos_double = [](const YamlView& node, const char* key, double& out) {
     if (auto v = node.maybe(key)) {
@@ -57,13 +70,16 @@ PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   };
   pos_double(n, "timestep", o.timestep);
   pos_int(n, "substeps", o.substeps);
+  // a file that gives the substeps alone keeps the control step: timestep = control step / substeps
+  if (n.maybe("substeps") && !n.maybe("timestep")) o.timestep = kControlDt / o.substeps;
+  check_control_step(n, o.timestep, o.substeps);
   pos_int(n, "iterations", o.iterations);
   pos_double(n, "tolerance", o.tolerance);
   pos_int(n, "memory", o.memory);
   pos_double(n, "max_speed", o.max_speed);
   if (auto v = n.maybe("integrator")) {
     o.integrator = v->as<std::string>();
-    one_of(*v, o.integrator, {"Euler", "RK4"});
+    one_of(*v, o.integrator, {"Euler", "RK4", "implicit", "implicitfast", "discrete"});
   }
   if (auto v = n.maybe("solver")) {
     o.solver = v->as<std::string>();
@@ -82,27 +98,23 @@ PhysicsOptions parse_physics(const YamlView& n, PhysicsOptions o) {
   if (auto v = n.maybe("coupling_solref")) o.coupling_solref = read_array<2>(*v);
   if (auto v = n.maybe("coupling_solimp")) o.coupling_solimp = read_array<5>(*v);
   o.gravity_free_hands = n.opt<bool>("gravity_free_hands", o.gravity_free_hands);
+  o.refsafe = n.opt<bool>("refsafe", o.refsafe);
   if (auto g = n.maybe("gpu")) {
     g->allow_keys({"timestep", "substeps", "njmax", "nconmax", "jacobian"});
     pos_double(*g, "timestep", o.gpu.timestep);
     pos_int(*g, "substeps", o.gpu.substeps);
+    if (g->maybe("substeps") && !g->maybe("timestep")) o.gpu.timestep = kControlDt / o.gpu.substeps;
+    // the GPU may take other physics steps, never another control step
+    if (o.gpu.timestep > 0 || o.gpu.substeps > 0) {
+      const PhysicsOptions on = o.on_gpu();
+      check_control_step(*g, on.timestep, on.substeps);
+    }
     pos_int(*g, "njmax", o.gpu.njmax);
     pos_int(*g, "nconmax", o.gpu.nconmax);
     if (auto v = g->maybe("jacobian")) {
       o.gpu.jacobian = v->as<std::string>();
       one_of(*v, o.gpu.jacobian, {"auto", "dense", "sparse"});
     }
-  }
-  // the GPU may take other physics steps, never another control step (tasks count in it); also
-  // when this file changes the CPU's step under a GPU step of the base options
-  const PhysicsOptions on = o.on_gpu();
-  if (std::abs(on.control_dt() - o.control_dt()) > 1e-9 * o.control_dt()) {
-    std::ostringstream want, got;
-    want << "timestep x substeps = " << o.control_dt() << " s, the CPU's control step";
-    got << on.timestep << " x " << on.substeps << " = " << on.control_dt() << " s";
-    auto g = n.maybe("gpu");
-    auto at = g ? g->maybe("substeps") : std::nullopt;
-    (at ? *at : g ? *g : n).fail(want.str(), got.str());
   }
   return o;
 }

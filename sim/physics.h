@@ -11,14 +11,23 @@ class YamlView;
 
 namespace bidex::sim {
 
+// The control step: the tasks' and the policy's rate (60 Hz, the original's). Every physics
+// step (timestep x substeps) adds up to it; parse_physics refuses one that does not.
+inline constexpr double kControlDt = 1.0 / 60.0;
+
 struct PhysicsOptions {
   double timestep = 1.0 / 480.0;  // s per physics step
   int substeps = 8;               // physics steps per control step (60 Hz control)
-  std::string integrator = "Euler";  // Euler (implicit joint damping) or RK4
+  // Euler (implicit joint damping), implicitfast, implicit, discrete (constraint springs at the
+  // end of the step: contacts stiffer than 2 timesteps stay stable) or RK4
+  std::string integrator = "Euler";
   std::string solver = "Newton";     // Newton, CG or PGS
   int iterations = 20;               // main solver iterations (a cap)
   double tolerance = 1e-8;           // solver early-exit tolerance
   std::string cone = "pyramidal";    // friction cone: pyramidal or elliptic
+  // MuJoCo's REFSAFE: constraint time constants below the integrator's floor are raised to it
+  // (2 timesteps; with discrete, where the step cannot resolve the spring); false lets them be
+  bool refsafe = true;
   std::string jacobian = "auto";     // constraint Jacobian: auto (dense below 60 dofs), dense,
                                      // sparse
   // contacts, the hands' self-contact pairs included: time constant (s; MuJoCo raises it to at

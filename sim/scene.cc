@@ -137,7 +137,7 @@ std::string SceneBuilder::mjcf() const {
   x << "  <option timestep=\"" << num(p.timestep) << "\" integrator=\"" << p.integrator
     << "\" solver=\"" << p.solver << "\" iterations=\"" << p.iterations << "\" tolerance=\""
     << num(p.tolerance) << "\" cone=\"" << p.cone << "\" jacobian=\"" << p.jacobian
-    << "\"/>\n";
+    << "\">" << (p.refsafe ? "" : "<flag refsafe=\"disable\"/>") << "</option>\n";
   x << "  <size memory=\"" << p.memory << "\"/>\n";
   x << "  <visual><global offwidth=\"1280\" offheight=\"960\"/></visual>\n";
   // explicit <pair>s (the hands' self-contacts) do not take geom defaults: give them the same

@@ -27,9 +27,9 @@ TEST_CASE("the project's physics.yaml loads into valid options", "[sim][physics]
 }
 
 TEST_CASE("parse_physics reads every key and keeps defaults for absent ones", "[sim][physics]") {
-  auto v = YamlView::load_string(R"(timestep: 0.002
-substeps: 8
-integrator: RK4
+  auto v = YamlView::load_string(R"(timestep: 0.004166666666666667
+substeps: 4
+integrator: discrete
 solver: PGS
 iterations: 7
 tolerance: 1.0e-6
@@ -45,10 +45,10 @@ max_speed: 321.5
 )",
                                  "all.yaml");
   PhysicsOptions p = parse_physics(v);
-  CHECK(p.timestep == 0.002);
-  CHECK(p.substeps == 8);
-  CHECK(p.control_dt() == Approx(0.016));
-  CHECK(p.integrator == "RK4");
+  CHECK(p.timestep == 0.004166666666666667);
+  CHECK(p.substeps == 4);
+  CHECK(p.control_dt() == Approx(1.0 / 60.0));
+  CHECK(p.integrator == "discrete");
   CHECK(p.solver == "PGS");
   CHECK(p.iterations == 7);
   CHECK(p.tolerance == 1.0e-6);
@@ -64,19 +64,24 @@ max_speed: 321.5
 
   PhysicsOptions base;
   base.iterations = 99;
-  PhysicsOptions partial = parse_physics(YamlView::load_string("substeps: 2\n", "p.yaml"), base);
-  CHECK(partial.substeps == 2);
-  CHECK(partial.iterations == 99);             // from `base`
-  CHECK(partial.timestep == base.timestep);   // untouched
+  PhysicsOptions partial = parse_physics(YamlView::load_string("iterations: 7\n", "p.yaml"), base);
+  CHECK(partial.iterations == 7);
+  CHECK(partial.substeps == base.substeps);   // untouched
+  CHECK(partial.timestep == base.timestep);
   CHECK(partial.solver == base.solver);
+  // the substeps alone keep the control step: the timestep follows them
+  PhysicsOptions two = parse_physics(YamlView::load_string("substeps: 2\n", "p.yaml"), base);
+  CHECK(two.substeps == 2);
+  CHECK(two.timestep == Approx(1.0 / 120.0));
+  CHECK(two.iterations == 99);  // from `base`
 }
 
 TEST_CASE("the GPU block replaces the physics step and room for the GPU backend only",
           "[sim][physics]") {
-  auto v = YamlView::load_string(R"(timestep: 0.002
+  auto v = YamlView::load_string(R"(timestep: 0.0020833333333333333
 substeps: 8
 gpu:
-  timestep: 0.004
+  timestep: 0.004166666666666667
   substeps: 4
   njmax: 96
   nconmax: 32
@@ -84,12 +89,12 @@ gpu:
 )",
                                  "gpu.yaml");
   PhysicsOptions p = parse_physics(v);
-  CHECK(p.timestep == 0.002);  // the CPU's step is untouched
+  CHECK(p.timestep == 0.0020833333333333333);  // the CPU's step is untouched
   CHECK(p.substeps == 8);
   CHECK(p.gpu.njmax == 96);
   CHECK(p.gpu.nconmax == 32);
   PhysicsOptions g = p.on_gpu();
-  CHECK(g.timestep == 0.004);
+  CHECK(g.timestep == 0.004166666666666667);
   CHECK(g.substeps == 4);
   CHECK(g.jacobian == "dense");
   CHECK(p.jacobian == "auto");
@@ -100,24 +105,29 @@ gpu:
   CHECK(same.on_gpu().timestep == same.timestep);
   CHECK(same.on_gpu().substeps == same.substeps);
   CHECK(same.gpu.njmax == 64);
+  // the GPU's substeps alone keep the control step
+  PhysicsOptions two = parse_physics(YamlView::load_string("gpu:\n  substeps: 2\n", "g2.yaml"));
+  CHECK(two.on_gpu().timestep == Approx(1.0 / 120.0));
+  CHECK(two.timestep == Approx(1.0 / 480.0));
 
-  // another control step is refused, naming the key and both steps
+  // a step that is not the control step of 1/60 s is refused, naming the key, the control step
+  // and the step given, on the CPU and on the GPU
   TempDir dir;
   const std::string path = dir.file("physics.yaml");
-  write_file_atomic(path, "timestep: 0.002\nsubsteps: 8\ngpu:\n  timestep: 0.004\n  substeps: 2\n");
+  write_file_atomic(path, "timestep: 0.002\nsubsteps: 8\n");
+  check_config_error(config_error([&] { load_physics(path); }), path, "substeps",
+                     "timestep x substeps = 1/60 s (the control step), e.g. timestep 0.00208333",
+                     "0.002 x 8 = 0.016 s");
+  write_file_atomic(path, "timestep: 0.004\n");  // with the default 8 substeps
+  check_config_error(config_error([&] { load_physics(path); }), path, "timestep",
+                     "timestep x substeps = 1/60 s", "0.004 x 8 = 0.032 s");
+  write_file_atomic(path, "gpu:\n  timestep: 0.004\n  substeps: 2\n");
   check_config_error(config_error([&] { load_physics(path); }), path, "gpu.substeps",
-                     "timestep x substeps = 0.016 s", "0.004 x 2 = 0.008 s");
-  // also when a file changes the CPU's step under the base options' GPU step
-  PhysicsOptions base;
-  base.gpu.timestep = 1.0 / 240.0;
-  base.gpu.substeps = 4;
-  CHECK(parse_physics(YamlView::load_string("substeps: 4\ntimestep: 0.0041666666666666666\n",
-                                            "same.yaml"),
-                      base)
-            .control_dt() == Approx(1.0 / 60.0));
-  CHECK_THROWS_WITH(parse_physics(YamlView::load_string("substeps: 2\n", "half.yaml"), base),
-                    Catch::Contains("half.yaml") && Catch::Contains("the CPU's control step") &&
-                        Catch::Contains("0.00416667 x 4 = 0.0166667 s"));
+                     "timestep x substeps = 1/60 s (the control step), e.g. timestep 0.00833333",
+                     "0.004 x 2 = 0.008 s");
+  write_file_atomic(path, "gpu:\n  timestep: 0.004166666666666667\n");  // with the CPU's 8
+  check_config_error(config_error([&] { load_physics(path); }), path, "gpu.timestep",
+                     "timestep x substeps = 1/60 s", "0.00416667 x 8 = 0.0333333 s");
   write_file_atomic(path, "gpu:\n  rows: 64\n");
   check_config_error(config_error([&] { load_physics(path); }), path, "gpu.rows",
                      "one of the keys {timestep, substeps, njmax, nconmax, jacobian}",
@@ -163,8 +173,8 @@ TEST_CASE("bad physics YAML is a ConfigError naming file, key, expected and actu
        "one of the keys {timestep, substeps", "unknown key 'substep_count'"},
       {"a solver MuJoCo does not have", "solver", "solver: Gauss", "solver",
        "one of Newton, CG, PGS", "'Gauss'"},
-      {"an unknown integrator", "integrator", "integrator: implicit", "integrator",
-       "one of Euler, RK4", "'implicit'"},
+      {"an unknown integrator", "integrator", "integrator: verlet", "integrator",
+       "one of Euler, RK4, implicit, implicitfast, discrete", "'verlet'"},
       {"an unknown Jacobian layout", "jacobian", "jacobian: banded", "jacobian",
        "one of auto, dense, sparse", "'banded'"},
       {"a negative timestep", "timestep", "timestep: -0.004", "timestep", "a number > 0",
