@@ -7,6 +7,7 @@
 #include "apps/commands.h"
 #include "bench/agree_bench.h"
 #include "bench/pack_bench.h"
+#include "bench/pair_audit.h"
 #include "bench/physics_study.h"
 #include "bench/sim_bench.h"
 #include "bench/task_bench.h"
@@ -119,6 +120,36 @@ void add_bench_command(CLI::App& app) {
     emit(bench::run_task_bench(*tc), *task_out, command_line());
   });
 
+  // bench pairs
+  auto pa = std::make_shared<bench::PairAuditConfig>();
+  auto pairs_out = std::make_shared<std::string>();
+  auto* pairs = bench->add_subcommand(
+      "pairs", "The collision-pair audit: per task scene, the geom pairs each world tests (as "
+               "MuJoCo Warp's broadphase lists them), by what they join (hand and itself, the two "
+               "hands, hand and object, hand and world, ...) and by the GPU's narrowphase path "
+               "(primitive or convex GJK/EPA); a table on stderr");
+  pairs->add_option("--task", pa->tasks, "Task ids (default: all 22)")->delimiter(',');
+  pairs->add_option("--physics", pa->physics_file,
+                    "Physics YAML (default: configs/sim/physics.yaml)");
+  pairs->add_flag("!--cpu", pa->on_gpu, "The scenes as the CPU builds them (default: the GPU's)");
+  pairs->add_option("--out,-o", *pairs_out, "Write the JSON here (atomically) instead of stdout");
+  pairs->footer("Example:\n  bidex bench pairs --task catch_underarm,bottle_cap -o pairs.json");
+  pairs->callback([pa, pairs_out] {
+    nlohmann::json j = bench::run_pair_audit(*pa);
+    std::fprintf(stderr, "%-22s %6s %6s %5s %5s %5s %5s %5s %5s %6s\n", "task", "geoms", "pairs",
+                 "self", "hands", "h-obj", "h-wld", "o-obj", "o-wld", "convex");
+    for (auto& t : j["tasks"]) {
+      auto& k = t["by_kind"];
+      std::fprintf(stderr, "%-22s %6d %6d %5d %5d %5d %5d %5d %5d %6d\n",
+                   t["task"].get<std::string>().c_str(), t["geoms"].get<int>(),
+                   t["pairs_listed"].get<int>(), k["hand_self"].get<int>(),
+                   k["hand_hand"].get<int>(), k["hand_object"].get<int>(),
+                   k["hand_world"].get<int>(), k["object_object"].get<int>(),
+                   k["object_world"].get<int>(), t["convex"].get<int>());
+    }
+    emit(j, *pairs_out, command_line());
+  });
+
   // bench pack
   auto pc = std::make_shared<bench::PackBenchConfig>();
   auto pack_out = std::make_shared<std::string>();
@@ -206,18 +237,21 @@ void add_bench_command(CLI::App& app) {
   auto ps_physics = std::make_shared<std::string>();
   auto* phys = bench->add_subcommand(
       "physics",
-      "The physics study: sweeps timestep/substeps, solver, contact and coupling softness, finger "
+      "The physics study: sweeps timestep/substeps, the integrator (Euler, implicitfast, "
+      "discrete) at 8, 4 and 2 substeps, solver, contact and coupling softness, finger "
       "damping and gain, joint friction and base damping one at a time around the current "
       "configuration; for "
       "each: cost (1 thread), faults under random actions (catch_underarm's and the hardest "
       "task's base limits), the egg at rest on the palm, coupling error during a finger sweep, "
-      "the free base's hang and push, a finger step response; then memory per slot");
+      "a grasped egg held 10 s against gravity, the free base's hang and push, a finger step "
+      "response; then memory per slot");
   phys->add_option("--groups", ps->groups,
-                   "Sweeps to run: timestep, solver, contact, coupling, damping, frictionloss, kp, "
-                   "base; 'reference' alone runs the reference only (default: all)")
+                   "Sweeps to run: timestep, integrator, solver, contact, coupling, damping, "
+                   "frictionloss, kp, base; 'reference' alone runs the reference only (default: "
+                   "all)")
       ->delimiter(',')
-      ->check(CLI::IsMember({"reference", "timestep", "solver", "contact", "coupling", "damping",
-                             "frictionloss", "kp", "base"}));
+      ->check(CLI::IsMember({"reference", "timestep", "integrator", "solver", "contact",
+                             "coupling", "damping", "frictionloss", "kp", "base"}));
   phys->add_option("--soak-slot-steps", ps->soak.slot_steps,
                    "Random-action slot-steps per candidate at catch_underarm's limits")
       ->capture_default_str();

@@ -128,8 +128,24 @@ double percentile(std::vector<float> v, double p) {
   return v[k];
 }
 
-// MuJoCo keeps every constraint's time constant at least twice the timestep (REFSAFE)
-double effective_timeconst(double tc, double dt) { return std::max(tc, 2.0 * dt); }
+// MuJoCo keeps every constraint's time constant at least twice the timestep (REFSAFE), except
+// with the discrete integrator: it evaluates the springs at the end of the step and caps only
+// contact and limit rows whose spring the step cannot resolve (dt^2 k imp > 1, k = 1 / (dmax^2
+// tc^2 zeta^2): at full impedance a time constant below dt / (zeta sqrt(dmax)), about dt), and
+// leaves equality rows (the coupling) as they are.
+double contact_floor(const sim::PhysicsOptions& p, const std::array<double, 2>& solref,
+                     const std::array<double, 5>& solimp) {
+  if (!p.refsafe) return 0;
+  if (p.integrator != "discrete") return 2.0 * p.timestep;
+  return p.timestep / (solref[1] * std::sqrt(solimp[1]));
+}
+double effective_contact_timeconst(const sim::PhysicsOptions& p) {
+  return std::max(p.contact_solref[0], contact_floor(p, p.contact_solref, p.contact_solimp));
+}
+double effective_coupling_timeconst(const sim::PhysicsOptions& p) {
+  if (p.integrator == "discrete" || !p.refsafe) return p.coupling_solref[0];
+  return std::max(p.coupling_solref[0], 2.0 * p.timestep);
+}
 
 json hand_json(const HandTuning& h) {
   return {{"finger_damping", h.finger_damping},
@@ -140,10 +156,11 @@ json hand_json(const HandTuning& h) {
 }
 
 bool same(const HandTuning& a, const HandTuning& b) { return hand_json(a) == hand_json(b); }
-// the options as MuJoCo uses them: time constants below 2 dt raised to 2 dt (REFSAFE)
+// the options as MuJoCo uses them: time constants below the integrator's floor raised to it
 sim::PhysicsOptions effective(sim::PhysicsOptions p) {
-  p.contact_solref[0] = effective_timeconst(p.contact_solref[0], p.timestep);
-  p.coupling_solref[0] = effective_timeconst(p.coupling_solref[0], p.timestep);
+  const double contact = effective_contact_timeconst(p), coupling = effective_coupling_timeconst(p);
+  p.contact_solref[0] = contact;
+  p.coupling_solref[0] = coupling;
   return p;
 }
 bool same(const sim::PhysicsOptions& a, const sim::PhysicsOptions& b) {
@@ -166,6 +183,7 @@ json physics_json(const sim::PhysicsOptions& p) {
           {"iterations", p.iterations},
           {"tolerance", p.tolerance},
           {"cone", p.cone},
+          {"refsafe", p.refsafe},
           {"jacobian", p.jacobian},
           {"contact_solref", p.contact_solref},
           {"contact_solimp", p.contact_solimp},
@@ -234,6 +252,65 @@ std::vector<Candidate> study_candidates(const sim::PhysicsOptions& P, const Hand
       p.contact_solref[0] = 2 * p.timestep;
       p.coupling_solref[0] = 2 * p.timestep;
       add("timestep", "substeps=" + std::to_string(n) + ", solrefs 2 dt", p, H);
+    }
+  }
+  if (want("integrator")) {
+    // each integrator at 8, 4 and 2 substeps, with contacts and couplings from the stiffest the
+    // integrator allows at that timestep (its floor) up to the reference's time constant, and
+    // the floor with 2 dt beside it (where they differ); then, at the cheapest steps, the
+    // elliptic cone and the solver's iteration cap
+    for (const char* integ : {"Euler", "implicitfast", "discrete"}) {
+      for (int n : {8, 6, 4, 2}) {
+        sim::PhysicsOptions p = P;
+        p.integrator = integ;
+        p.substeps = n;
+        p.timestep = control_dt / n;
+        const double floor = contact_floor(p, P.contact_solref, P.contact_solimp);
+        std::vector<double> tcs{floor};
+        for (double tc : {P.contact_solref[0], 2 * p.timestep})
+          if (tc > floor * (1 + 1e-6)) tcs.push_back(tc);
+        for (double tc : tcs) {
+          p.contact_solref[0] = tc;
+          p.coupling_solref[0] = tc;
+          add("integrator", std::string(integ) + ", substeps=" + std::to_string(n) + ", solrefs " +
+                                fmt("%.3g", tc * 1e3) + " ms", p, H);
+        }
+      }
+    }
+    // discrete without REFSAFE: contacts stiffer than the step (its docs: stable at any time
+    // constant), at half and a quarter of the timestep
+    for (int n : {6, 4}) {
+      sim::PhysicsOptions p = P;
+      p.integrator = "discrete";
+      p.refsafe = false;
+      p.substeps = n;
+      p.timestep = control_dt / n;
+      for (double f : {0.5, 0.25}) {
+        p.contact_solref[0] = p.coupling_solref[0] = f * p.timestep;
+        add("integrator", "discrete, substeps=" + std::to_string(n) + ", solrefs " +
+                              fmt("%.3g", p.contact_solref[0] * 1e3) + " ms, no REFSAFE", p, H);
+      }
+    }
+    for (const char* integ : {"Euler", "discrete"}) {
+      for (int n : {4, 2}) {
+        sim::PhysicsOptions p = P;
+        p.integrator = integ;
+        p.substeps = n;
+        p.timestep = control_dt / n;
+        const double tc = std::max(P.contact_solref[0],
+                                   contact_floor(p, P.contact_solref, P.contact_solimp));
+        p.contact_solref[0] = p.coupling_solref[0] = tc;
+        const std::string base = std::string(integ) + ", substeps=" + std::to_string(n) +
+                                 ", solrefs " + fmt("%.3g", tc * 1e3) + " ms";
+        sim::PhysicsOptions q = p;
+        q.cone = "elliptic";
+        add("integrator", base + ", elliptic", q, H);
+        for (int it : {5, 10}) {
+          q = p;
+          q.iterations = it;
+          add("integrator", base + ", Newton x" + std::to_string(it), q, H);
+        }
+      }
     }
   }
   if (want("solver")) {
@@ -420,6 +497,33 @@ json measure_rest(const sim::SimModel& model) {
     out["egg_on_hand"] = rest_on_hand;
     out["max_penetration_squeeze_m"] = pen_squeeze;
     out["egg_on_hand_squeeze"] = egg_contacts(m, w.d, egg_geom, right_body).on_hand;
+
+    // a grasp held against gravity: still squeezed, the world is turned over (gravity along the
+    // palm's normal, away from it: the closed hand palm down) for 10 s; the fingers alone hold
+    // the egg. Its slip in the palm's frame and whether it stays in the hand.
+    {
+      mjModel* over = mj_copyModel(nullptr, m);
+      for (int k = 0; k < 3; ++k) over->opt.gravity[k] = -m->opt.gravity[k];
+      const auto h0 = in_body_frame(w.d, palm, pe);
+      const int n_hold = w.steps_for(10.0);
+      double slip = 0, pen_hold = 0, left_at = -1;
+      for (int i = 0; i < n_hold; ++i) {
+        sim::update_base_wrench(model, w.d, w.wrench.data());
+        mj_step(over, w.d);
+        EggContacts e = egg_contacts(m, w.d, egg_geom, right_body);
+        pen_hold = std::max(pen_hold, e.max_penetration);
+        slip = std::max(slip, dist3(h0, in_body_frame(w.d, palm, pe)));
+        if (left_at < 0 && !e.on_hand) left_at = (i + 1) * w.dt();
+      }
+      out["hold"] = {{"seconds", 10.0},
+                     {"max_slip_palm_m", slip},
+                     {"slip_palm_end_m", dist3(h0, in_body_frame(w.d, palm, pe))},
+                     {"max_penetration_m", pen_hold},
+                     {"first_left_hand_s", left_at},
+                     {"egg_on_hand_end", egg_contacts(m, w.d, egg_geom, right_body).on_hand},
+                     {"finite", w.finite()}};
+      mj_deleteModel(over);
+    }
     out["warnings"] = sim::warning_total(w.d);
     out["finite"] = w.finite();
   }
@@ -868,9 +972,8 @@ json run_physics_study(const PhysicsStudyConfig& cfg) {
     e["name"] = c.name;
     e["physics"] = physics_json(c.physics);
     e["hand"] = hand_json(c.hand);
-    e["effective_timeconst"] = {
-        {"contact", effective_timeconst(c.physics.contact_solref[0], c.physics.timestep)},
-        {"coupling", effective_timeconst(c.physics.coupling_solref[0], c.physics.timestep)}};
+    e["effective_timeconst"] = {{"contact", effective_contact_timeconst(c.physics)},
+                                {"coupling", effective_coupling_timeconst(c.physics)}};
     e["mjdata_bytes_per_slot"] = model.data_bytes();
     if (c.cost_only) {
       if (cfg.cost.rounds <= 0) continue;
@@ -942,6 +1045,8 @@ json run_physics_study(const PhysicsStudyConfig& cfg) {
     row["squeeze_penetration_m"] = e["rest"]["max_penetration_squeeze_m"];
     row["drop_penetration_m"] = e["rest"]["drop"]["max_penetration_m"];
     row["rest_drift_palm_m"] = e["rest"]["drift_palm_2s_m"];
+    row["hold_slip_palm_m"] = e["rest"]["hold"]["slip_palm_end_m"];
+    row["hold_egg_on_hand"] = e["rest"]["hold"]["egg_on_hand_end"];
     row["egg_on_hand"] = e["rest"]["egg_on_hand"];
     row["coupling_error_rad"] = e["coupling"]["max_error_rad"];
     row["hang_drift_m"] = e["hang"]["still_left_drift_2s_m"];
