@@ -28,6 +28,7 @@ TaskSpec catch_family_spec(std::string id, std::string paper_name, std::string o
   }
   s.agents = agents_per_hand(s.obs, s.act);
   s.goal_shifts = nobjects;
+  s.hands_collide = false;  // the original's filter -1 in every catch task and ML1
   if (nobjects == 1) {
     s.reward_terms.push_back({"pose", "exp(-0.2 (alpha d + theta)): d the object's distance to "
                                       "the goal (m), theta the rotation between them (rad)"});
@@ -176,7 +177,7 @@ sim::SceneBuilder CatchTask::scene(const sim::HandSpec& right_hand,
                                    const sim::PhysicsOptions& physics) const {
   sim::SceneBuilder sb(physics);
   const auto base = spec().free_base ? sim::Base::kFree : sim::Base::kFixed;
-  add_two_hands(sb, right_hand, p_.right, p_.left, base);
+  add_two_hands(sb, right_hand, p_.right, p_.left, base, spec().hands_collide);
   const int nobj = prog_.nobj;
   for (int i = 0; i < nobj; ++i) {
     sim::ObjectSpec o = p_.object.spec;

@@ -247,7 +247,7 @@ HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
 sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
                                     const sim::PhysicsOptions& physics) const {
   sim::SceneBuilder sb(physics);
-  add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
+  add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree, spec().hands_collide);
   sim::ObjectSpec o;
   o.shape = sim::ObjectSpec::Shape::kMjcf;
   if (p_.kind == HandleParams::Kind::kPot) {

@@ -83,8 +83,9 @@ void bind_two_hands(const sim::SimModel& model, double force_scale, double torqu
 }
 
 void add_two_hands(sim::SceneBuilder& sb, const sim::HandSpec& right_hand, const HandPose& right,
-                   const HandPose& left, sim::Base base) {
+                   const HandPose& left, sim::Base base, bool hands_collide) {
   auto pose = [](const HandPose& h) { return sim::Pose::rpy(h.pos, h.rpy[0], h.rpy[1], h.rpy[2]); };
+  sb.set_hand_hand_contacts(hands_collide);
   sb.add_hand(right_hand, {sim::Side::kRight, pose(right), base});
   sb.add_hand(right_hand, {sim::Side::kLeft, pose(left), base});
 }

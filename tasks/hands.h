@@ -20,7 +20,7 @@ void bind_two_hands(const sim::SimModel& model, double force_scale, double torqu
                     HandRig (&hands)[2]);
 // Both hands into a task's scene at their mounts.
 void add_two_hands(sim::SceneBuilder& sb, const sim::HandSpec& right_hand, const HandPose& right,
-                   const HandPose& left, sim::Base base);
+                   const HandPose& left, sim::Base base, bool hands_collide);
 
 // tasks/hand_body.h's functions over a slot's batch rows.
 inline void tip_point(const HandRig& r, const sim::SlotView& v, int k, double* out) {

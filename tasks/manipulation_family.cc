@@ -141,7 +141,7 @@ ManipTask::ManipTask(const TaskSpec& spec, CommonParams common)
 sim::SceneBuilder ManipTask::scene_with_hands(const sim::HandSpec& right_hand,
                                               const sim::PhysicsOptions& physics) const {
   sim::SceneBuilder sb(physics);
-  add_two_hands(sb, right_hand, c_.right, c_.left, sim::Base::kFree);
+  add_two_hands(sb, right_hand, c_.right, c_.left, sim::Base::kFree, spec().hands_collide);
   return sb;
 }
 

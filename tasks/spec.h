@@ -71,6 +71,11 @@ struct TaskSpec {
   std::string skill;          // the human skill, paraphrasing the paper's table
   int episode_length = 0;     // control steps (60 Hz)
   bool free_base = false;     // hands on 6-DoF bases (52 actions) or fixed (40)
+  // The two hands collide with each other, as in the original's tasks whose hands it created
+  // with collision filter 0; where it passed -1 (the MJCF's contype 1, conaffinity 0 on every
+  // hand geom), its hands passed through each other, and so do ours (sim/README.md, "Collision
+  // pairs").
+  bool hands_collide = true;
   Layout obs, act;
   std::vector<AgentSpec> agents;
   std::vector<RewardTermSpec> reward_terms;  // the reward is the sum of these terms

@@ -178,6 +178,9 @@ TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_nam
   TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
                              std::move(age), kind == TableKind::kPourWater ? Difficulty::kHard : Difficulty::kEasy, std::move(skill), episode_length,
                              true);
+  // the original's Kettle (pour_water) creates its hands with filter -1, its other table tasks
+  // with 0
+  s.hands_collide = kind != TableKind::kPourWater;
   const char* what = "";
   const char* goal = "";
   const char* rot = "";
@@ -359,7 +362,7 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
     ph.gpu.nconmax = std::max(ph.gpu.nconmax, 128);
   }
   sim::SceneBuilder sb(ph);
-  add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree);
+  add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree, spec().hands_collide);
   sim::TableSpec table;
   table.half_size = {p_.table_size[0] / 2, p_.table_size[1] / 2, p_.table_size[2] / 2};
   table.pose.pos = p_.table_pos;

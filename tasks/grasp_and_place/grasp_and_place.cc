@@ -89,6 +89,7 @@ TaskSpec make_spec() {
   s.obs.add("bucket_link.quat", 4, "the bucket link's orientation (x, y, z, w)");
   s.obs.add("object.pos", 3, "the object's position (m)");
   s.obs.add("object.quat", 4, "the object's orientation (x, y, z, w)");
+  s.hands_collide = false;  // the original's collision filter -1: its hands pass through each other
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms = {
       {"right_hand", "exp(-decay d_right), d_right the right fingertips' distance sum to the bucket (m)"},

@@ -12,6 +12,7 @@ const TaskSpec& hand_over_free_spec() {
                                    base.difficulty, base.skill, base.episode_length,
                                    /*free_base=*/true, /*nobjects=*/1);
     s.variant_of = "hand_over";
+    s.hands_collide = true;  // the original's MT4 environment creates its hands with filter 0
     return s;
   }();
   return spec;

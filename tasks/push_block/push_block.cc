@@ -45,6 +45,7 @@ TaskSpec make_spec() {
   add_object_obs(s.obs, "block1", "block 1 (the left hand's)");
   s.obs.add("block1.pos", 3, "block 1 position (m), as the paper's table repeats it");
   s.obs.add("block2.pos", 3, "block 2 (the right hand's) position (m)");
+  s.hands_collide = false;  // the original's collision filter -1: its hands pass through each other
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms = {
       {"offset", "reward.offset (the paper's 2)"},

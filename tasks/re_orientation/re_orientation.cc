@@ -71,6 +71,7 @@ TaskSpec make_spec() {
     add_object_obs(s.obs, o, "cube " + std::to_string(i));
     add_goal_obs(s.obs, g, "cube " + std::to_string(i) + "'s goal");
   }
+  s.hands_collide = false;  // the original's collision filter -1: its hands pass through each other
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms = {
       {"position", "dist_scale (d1 + d2): the cubes' distances to their goal positions (m)"},
