@@ -8,6 +8,11 @@
 #       SUBSTEPS:NJMAX:JACOBIAN (e.g. 4:128:dense), the gpu block of configs/sim/physics.yaml with
 #       that step (1/60 s / SUBSTEPS), room and Jacobian; rates, overflows and rows needed
 #       (BIDEX_GPU_PHYSICS=SUBSTEPS:NJMAX:JACOBIAN sets that gpu block for any stage)
+#   bench/gpu_learn_run.sh step OUTDIR TASKS WORLDS NAME=FILE...
+#       whole physics steps side by side (bidex bench warp --physics FILE): each FILE a physics
+#       YAML that both backends step (integrator, substeps, contacts, room); rates of raw MuJoCo
+#       Warp and of the whole task step, overflows, faults and rows needed, into
+#       OUTDIR/step-NAME.json
 #   bench/gpu_learn_run.sh pack OUTDIR [SUITE] [SLOTS]
 #       the suite's train split packed on the GPU against each task alone (bidex bench pack)
 #   bench/gpu_learn_run.sh profile OUTDIR TASKS SLOTS_LIST [UPDATES]
@@ -33,12 +38,13 @@
 #       (bidex eval --split train|test, EPISODES slots per task, on the CPU; EPISODES 0: no
 #       evaluation, for a slice of a longer run); results go to OUTDIR/SUITE-ALGO
 # Results go to OUTDIR with the machine, date, commit ($BIDEX_COMMIT) and commands. The run
-# folders stay on the machine under /tmp/bidex-gpu-runs. BIDEX_GPU_BUILD: the build folder.
+# folders stay on the machine under /tmp/bidex-gpu-runs ($BIDEX_GPU_RUNS). BIDEX_GPU_BUILD: the
+# build folder. BIDEX_PHYSICS=FILE: every stage runs with that physics YAML as the default.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 build=${BIDEX_GPU_BUILD:-build-gpu}
 bidex="$build/apps/bidex"
-runs=/tmp/bidex-gpu-runs
+runs=${BIDEX_GPU_RUNS:-/tmp/bidex-gpu-runs}
 stage=${1:?stage: build, physics, pack, profile, collect, train, reference or meta}
 shift
 SECONDS=0
@@ -75,6 +81,11 @@ text += f"  nconmax: 64\n  jacobian: {jac}\n"
 open(dst, "w").write(text)
 PY
 }
+
+if [[ -n ${BIDEX_PHYSICS:-} ]]; then
+  cp "$BIDEX_PHYSICS" configs/sim/physics.yaml
+  echo "physics: $BIDEX_PHYSICS"
+fi
 
 # BIDEX_GPU_PHYSICS=SUBSTEPS:NJMAX:JACOBIAN: every stage runs with that gpu block
 if [[ -n ${BIDEX_GPU_PHYSICS:-} ]]; then
@@ -115,6 +126,29 @@ for r in json.load(open(sys.argv[1]))["results"]:
 PY
   done
   echo "physics: ${SECONDS}s"
+  ;;
+step)
+  out=$(realpath -m "${1:?OUTDIR}"); tasks=${2:?TASKS}; worlds=${3:?WORLDS}
+  shift 3
+  mkdir -p "$out"
+  for cand in "$@"; do
+    name=${cand%%=*}; file=$(realpath "${cand#*=}")
+    json="$out/step-$name.json"
+    cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2"
+    cmd+=" --determinism-steps 0 --physics $(basename "$file")"
+    "$bidex" bench warp --task "$tasks" --worlds "$worlds" --seconds 1 --rounds 2 \
+      --determinism-steps 0 --physics "$file" --out "$json" >"${json%.json}.log" 2>&1 \
+      || { tail "${json%.json}.log"; continue; }
+    stamp "$json" "$cmd"
+    python3 - "$json" "$name" <<'PY'
+import json, sys
+for r in json.load(open(sys.argv[1]))["results"]:
+  print(f"{sys.argv[2]:>16} {r['task']:<20} {r['worlds']:>6} raw {r['raw_slot_steps_per_s']:>9.0f} "
+        f"task {r.get('task_slot_steps_per_s', 0):>9.0f} overflows {r['overflows']} "
+        f"faults {r['faults']} rows {r['max_rows']}/{r['njmax']}")
+PY
+  done
+  echo "step: ${SECONDS}s"
   ;;
 pack)
   out=$(realpath -m "${1:?OUTDIR}"); suite=${2:-MT20}; slots=${3:-16384}
