@@ -87,6 +87,26 @@ if [[ -n ${BIDEX_PHYSICS:-} ]]; then
   echo "physics: $BIDEX_PHYSICS"
 fi
 
+# warp_step OUT PREFIX NAME FILE TASKS WORLDS: bench warp on physics YAML FILE into
+# OUT/PREFIX-NAME.json (and .log), stamped, with a line per task and world count
+warp_step() {
+  local out=$1 prefix=$2 name=$3 file=$4 tasks=$5 worlds=$6
+  local json="$out/$prefix-$name.json"
+  local cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2"
+  cmd+=" --determinism-steps 0 --physics $(basename "$file")"
+  "$bidex" bench warp --task "$tasks" --worlds "$worlds" --seconds 1 --rounds 2 \
+    --determinism-steps 0 --physics "$file" --out "$json" >"${json%.json}.log" 2>&1 \
+    || { tail "${json%.json}.log"; return; }
+  stamp "$json" "$cmd"
+  python3 - "$json" "$name" <<'PY'
+import json, sys
+for r in json.load(open(sys.argv[1]))["results"]:
+  print(f"{sys.argv[2]:>16} {r['task']:<20} {r['worlds']:>6} raw {r['raw_slot_steps_per_s']:>9.0f} "
+        f"task {r.get('task_slot_steps_per_s', 0):>9.0f} overflows {r['overflows']} "
+        f"faults {r['faults']} rows {r['max_rows']}/{r['njmax']}")
+PY
+}
+
 # BIDEX_GPU_PHYSICS=SUBSTEPS:NJMAX:JACOBIAN: every stage runs with that gpu block
 if [[ -n ${BIDEX_GPU_PHYSICS:-} ]]; then
   gpu_block "$BIDEX_GPU_PHYSICS" configs/sim/physics.yaml configs/sim/physics.yaml
@@ -108,22 +128,8 @@ physics)
   mkdir -p "$out"
   for cand in "$@"; do
     IFS=: read -r sub njmax jac <<<"$cand"
-    file="$out/physics-$sub-$njmax-$jac.yaml"
-    gpu_block "$cand" configs/sim/physics.yaml "$file"
-    json="$out/physics-$sub-$njmax-$jac.json"
-    cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2"
-    cmd+=" --determinism-steps 0 --physics physics-$sub-$njmax-$jac.yaml"
-    "$bidex" bench warp --task "$tasks" --worlds "$worlds" --seconds 1 --rounds 2 \
-      --determinism-steps 0 --physics "$file" --out "$json" >"${json%.json}.log" 2>&1 \
-      || { tail "${json%.json}.log"; continue; }
-    stamp "$json" "$cmd"
-    python3 - "$json" "$cand" <<'PY'
-import json, sys
-for r in json.load(open(sys.argv[1]))["results"]:
-  print(f"{sys.argv[2]:>14} {r['task']:<20} {r['worlds']:>6} raw {r['raw_slot_steps_per_s']:>9.0f} "
-        f"task {r.get('task_slot_steps_per_s', 0):>9.0f} overflows {r['overflows']} "
-        f"faults {r['faults']} rows {r['max_rows']}/{r['njmax']}")
-PY
+    gpu_block "$cand" configs/sim/physics.yaml "$out/physics-$sub-$njmax-$jac.yaml"
+    warp_step "$out" physics "$sub-$njmax-$jac" "$out/physics-$sub-$njmax-$jac.yaml" "$tasks" "$worlds"
   done
   echo "physics: ${SECONDS}s"
   ;;
@@ -132,21 +138,7 @@ step)
   shift 3
   mkdir -p "$out"
   for cand in "$@"; do
-    name=${cand%%=*}; file=$(realpath "${cand#*=}")
-    json="$out/step-$name.json"
-    cmd="bidex bench warp --task $tasks --worlds $worlds --seconds 1 --rounds 2"
-    cmd+=" --determinism-steps 0 --physics $(basename "$file")"
-    "$bidex" bench warp --task "$tasks" --worlds "$worlds" --seconds 1 --rounds 2 \
-      --determinism-steps 0 --physics "$file" --out "$json" >"${json%.json}.log" 2>&1 \
-      || { tail "${json%.json}.log"; continue; }
-    stamp "$json" "$cmd"
-    python3 - "$json" "$name" <<'PY'
-import json, sys
-for r in json.load(open(sys.argv[1]))["results"]:
-  print(f"{sys.argv[2]:>16} {r['task']:<20} {r['worlds']:>6} raw {r['raw_slot_steps_per_s']:>9.0f} "
-        f"task {r.get('task_slot_steps_per_s', 0):>9.0f} overflows {r['overflows']} "
-        f"faults {r['faults']} rows {r['max_rows']}/{r['njmax']}")
-PY
+    warp_step "$out" step "${cand%%=*}" "$(realpath "${cand#*=}")" "$tasks" "$worlds"
   done
   echo "step: ${SECONDS}s"
   ;;
