@@ -136,12 +136,9 @@ json audit_pairs(const sim::SimModel& model, bool native_box_box) {
 
 json run_pair_audit(const PairAuditConfig& cfg) {
   std::vector<std::string> ids = cfg.tasks;
-  if (ids.empty()) {
-    for (auto& e : tasks::task_registry()) ids.push_back(e.spec().id);
-    for (auto& e : tasks::variant_registry())
-      if (e.spec().id == "catch_underarm_raise" || e.spec().id == "hand_over_free")
-        ids.push_back(e.spec().id);
-  }
+  if (ids.empty())
+    for (auto* list : {&tasks::task_registry(), &tasks::variant_registry()})
+      for (auto& e : *list) ids.push_back(e.spec().id);
   json out;
   out["what"] =
       "geom pairs each world tests per task scene, as MuJoCo Warp's broadphase lists them, by "

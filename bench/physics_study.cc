@@ -83,9 +83,10 @@ struct World {
       : model(mdl), m(mdl.mj()), batch(mdl, 1, {1, 1}), d(batch.data(0)),
         wrench(mdl.nwrench(), 0.0) {}
 
-  void step() {
+  // one physics step, of `with` where given (the model with other options, e.g. gravity)
+  void step(const mjModel* with = nullptr) {
     sim::update_base_wrench(model, d, wrench.data());
-    mj_step(m, d);
+    mj_step(with ? with : m, d);
   }
   double dt() const { return m->opt.timestep; }
   int substeps() const { return model.physics().substeps; }
@@ -133,18 +134,19 @@ double percentile(std::vector<float> v, double p) {
 // contact and limit rows whose spring the step cannot resolve (dt^2 k imp > 1, k = 1 / (dmax^2
 // tc^2 zeta^2): at full impedance a time constant below dt / (zeta sqrt(dmax)), about dt), and
 // leaves equality rows (the coupling) as they are.
-double contact_floor(const sim::PhysicsOptions& p, const std::array<double, 2>& solref,
-                     const std::array<double, 5>& solimp) {
+double contact_floor(const sim::PhysicsOptions& p) {
   if (!p.refsafe) return 0;
   if (p.integrator != "discrete") return 2.0 * p.timestep;
-  return p.timestep / (solref[1] * std::sqrt(solimp[1]));
+  return p.timestep / (p.contact_solref[1] * std::sqrt(p.contact_solimp[1]));
+}
+double coupling_floor(const sim::PhysicsOptions& p) {
+  return p.refsafe && p.integrator != "discrete" ? 2.0 * p.timestep : 0;
 }
 double effective_contact_timeconst(const sim::PhysicsOptions& p) {
-  return std::max(p.contact_solref[0], contact_floor(p, p.contact_solref, p.contact_solimp));
+  return std::max(p.contact_solref[0], contact_floor(p));
 }
 double effective_coupling_timeconst(const sim::PhysicsOptions& p) {
-  if (p.integrator == "discrete" || !p.refsafe) return p.coupling_solref[0];
-  return std::max(p.coupling_solref[0], 2.0 * p.timestep);
+  return std::max(p.coupling_solref[0], coupling_floor(p));
 }
 
 json hand_json(const HandTuning& h) {
@@ -255,7 +257,7 @@ std::vector<Candidate> study_candidates(const sim::PhysicsOptions& P, const Hand
     }
   }
   if (want("integrator")) {
-    // each integrator at 8, 4 and 2 substeps, with contacts and couplings from the stiffest the
+    // each integrator at 8, 6, 4 and 2 substeps, with contacts and couplings from the stiffest the
     // integrator allows at that timestep (its floor) up to the reference's time constant, and
     // the floor with 2 dt beside it (where they differ); then, at the cheapest steps, the
     // elliptic cone and the solver's iteration cap
@@ -265,7 +267,7 @@ std::vector<Candidate> study_candidates(const sim::PhysicsOptions& P, const Hand
         p.integrator = integ;
         p.substeps = n;
         p.timestep = control_dt / n;
-        const double floor = contact_floor(p, P.contact_solref, P.contact_solimp);
+        const double floor = contact_floor(p);
         std::vector<double> tcs{floor};
         for (double tc : {P.contact_solref[0], 2 * p.timestep})
           if (tc > floor * (1 + 1e-6)) tcs.push_back(tc);
@@ -298,7 +300,7 @@ std::vector<Candidate> study_candidates(const sim::PhysicsOptions& P, const Hand
         p.substeps = n;
         p.timestep = control_dt / n;
         const double tc = std::max(P.contact_solref[0],
-                                   contact_floor(p, P.contact_solref, P.contact_solimp));
+                                   contact_floor(p));
         p.contact_solref[0] = p.coupling_solref[0] = tc;
         const std::string base = std::string(integ) + ", substeps=" + std::to_string(n) +
                                  ", solrefs " + fmt("%.3g", tc * 1e3) + " ms";
@@ -508,8 +510,7 @@ json measure_rest(const sim::SimModel& model) {
       const int n_hold = w.steps_for(10.0);
       double slip = 0, pen_hold = 0, left_at = -1;
       for (int i = 0; i < n_hold; ++i) {
-        sim::update_base_wrench(model, w.d, w.wrench.data());
-        mj_step(over, w.d);
+        w.step(over);
         EggContacts e = egg_contacts(m, w.d, egg_geom, right_body);
         pen_hold = std::max(pen_hold, e.max_penetration);
         slip = std::max(slip, dist3(h0, in_body_frame(w.d, palm, pe)));
