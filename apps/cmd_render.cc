@@ -130,6 +130,7 @@ void add_render_command(CLI::App& app) {
       taskpack::PackOptions po;
       po.threads = 1;
       po.seed = o->seed;
+      po.physics_file = c.physics;  // the run's own step
       taskpack::TaskPack pack(ps, po);
       policy.check_fits(pack, c.target() + " now");
       pack.reset();

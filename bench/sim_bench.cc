@@ -97,12 +97,8 @@ void SoakTally::add(const sim::SimBatch& batch) {
 }
 
 void SoakTally::to_json(json& out) const {
-  out["faults_bad_input"] = by_kind[0];
-  out["faults_non_finite"] = by_kind[1];
-  out["faults_exploded"] = by_kind[2];
-  out["faults_mujoco_warning"] = by_kind[3];
-  out["faults_mujoco_error"] = by_kind[4];
-  out["faults_overflow"] = by_kind[5];
+  for (int k = 0; k < sim::kFaultKinds; ++k)
+    out[std::string("faults_") + sim::fault_kind_name(k)] = by_kind[k];
   out["maxuse_arena"] = maxuse_arena;
   out["maxuse_con"] = maxuse_con;
   out["maxuse_efc"] = maxuse_efc;

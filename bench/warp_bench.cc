@@ -60,6 +60,7 @@ json task_step(const std::string& id, int n, const WarpBenchConfig& cfg) {
   auto raw = [&] { w.raw_step(); };
   for (int i = 0; i < cfg.warmup_steps; ++i, ++step) full();
   env.take_stats();
+  const int64_t physics_faults0 = w.total_faults();
   Rate best_raw, best_full;
   int64_t checked = 0;  // task slot-steps that went through the fault check
   for (int r = 0; r < cfg.rounds; ++r) {
@@ -74,6 +75,10 @@ json task_step(const std::string& id, int n, const WarpBenchConfig& cfg) {
     if (b.per_s() > best_full.per_s()) best_full = b;
   }
   const auto st = env.take_stats();
+  // a task fault is a physics fault (the backend's check) or a non-finite observation
+  json kinds = w.fault_kinds();
+  const int64_t obs_faults = st.faults - (w.total_faults() - physics_faults0);
+  if (obs_faults > 0) kinds["non_finite_observation"] = obs_faults;
   const double raw_slot = best_raw.per_s() * n, full_slot = best_full.per_s() * n;
   return {{"task_slot_steps_per_s", full_slot},
           {"task_raw_slot_steps_per_s", raw_slot},
@@ -81,7 +86,8 @@ json task_step(const std::string& id, int n, const WarpBenchConfig& cfg) {
           {"task_episodes", st.episodes},
           {"task_mean_return", st.episodes ? st.return_sum / st.episodes : 0},
           {"task_checked_slot_steps", checked},
-          {"task_faults", st.faults}};
+          {"task_faults", st.faults},
+          {"task_fault_kinds", kinds}};
 }
 
 // Two fresh backends of the same scene stepped with the same inputs: are they bitwise equal?
@@ -111,6 +117,26 @@ json determinism(const sim::SimModel& model, const WarpBenchConfig& cfg, int n, 
   }
   return {{"worlds", n}, {"steps", steps}, {"bitwise_identical", differing == 0},
           {"qpos_values_differing", differing}, {"qpos_max_abs_diff", max_diff}};
+}
+
+// Where raw stepping's GPU time goes (MuJoCo Warp's event scopes): milliseconds per substep by
+// scope path, and the shares of collision detection and of the constraint solver.
+json phases(sim::WarpBackend& w, int steps) {
+  const auto ms = w.phase_profile(steps);
+  auto at = [&](const std::string& path) {
+    auto it = ms.find(path);
+    return it == ms.end() ? 0.0 : it->second;
+  };
+  const double total = at("step");
+  const double collision = at("step/forward/fwd_position/collision");
+  const double constraint = at("step/forward/fwd_position/make_constraint");
+  const double solver = at("step/forward/solve");
+  auto share = [&](double x) { return total > 0 ? x / total : 0.0; };
+  return {{"phase_ms_per_substep", ms},
+          {"phase_steps", steps},
+          {"collision_share", share(collision)},
+          {"make_constraint_share", share(constraint)},
+          {"solver_share", share(solver)}};
 }
 
 }  // namespace
@@ -178,11 +204,13 @@ json run_warp_bench(const WarpBenchConfig& cfg) {
                   {"ratio_bidex_to_raw", raw_slot > 0 ? bidex_slot / raw_slot : 0},
                   {"checked_slot_steps", checked},
                   {"faults", w.total_faults() - faults0},
+                  {"fault_kinds", w.fault_kinds()},
                   {"overflows", w.total_overflows() - overflows0},
                   {"max_rows", w.max_rows()},
                   {"room_advice", w.room_advice()},
                   {"device_bytes", w.device_bytes()},
                   {"device_bytes_per_world", static_cast<double>(w.device_bytes()) / n}};
+      if (cfg.phase_steps > 0) row.update(phases(w, cfg.phase_steps));
       if (cfg.stages && tasks::runs_on_warp(*task)) {
         w.synchronize();
         row.update(task_step(id, n, cfg));

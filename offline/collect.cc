@@ -128,12 +128,14 @@ DatasetInfo collect(const CollectOptions& o) {
     taskpack::WarpPackOptions wo;
     wo.seed = o.seed;
     wo.device = "cuda";
+    wo.physics_file = cfg.physics;
     pack = std::make_unique<taskpack::WarpPack>(spec, wo);
     dev = torch::Device(torch::kCUDA, 0);
   } else {
     taskpack::PackOptions po;
     po.threads = cfg.threads;
     po.seed = o.seed;
+    po.physics_file = cfg.physics;
     pack = std::make_unique<taskpack::TaskPack>(spec, po);
   }
   if (policy) policy->check_fits(*pack, "task " + cfg.task);

@@ -10,6 +10,7 @@
 #include "rl/algorithms.h"
 #include "rl/config_fields.h"
 #include "sim/hand_spec.h"
+#include "sim/physics.h"
 
 namespace bidex::rl {
 
@@ -165,13 +166,23 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
   }
   {
     auto e = v.child("env");
-    e.allow_keys({"slots", "threads", "task_config"});
+    e.allow_keys({"slots", "threads", "task_config", "physics"});
     c.slots = read_int(e, "slots", 1);
     c.threads = read_int(e, "threads", 0);
     c.task_config = e.req<std::string>("task_config");
     if (!c.suite.empty() && !c.task_config.empty())
       e.child("task_config").fail("\"\" for a suite run (each suite entry names its own task YAML)",
                                   e.child("task_config").repr());
+    // absent from run configs written before the key existed: the default physics
+    c.physics = e.has("physics") ? e.req<std::string>("physics") : "";
+    if (!c.physics.empty()) {
+      try {
+        sim::load_physics(c.physics);
+      } catch (const std::exception& ex) {
+        e.child("physics").fail("a readable physics YAML (the keys of configs/sim/physics.yaml)",
+                                e.child("physics").repr() + " (" + ex.what() + ")");
+      }
+    }
   }
   {
     auto t = v.child("train");

@@ -96,6 +96,7 @@ struct TrainConfig {
   int slots = 2048;
   int threads = 0;
   std::string task_config;
+  std::string physics;            // physics YAML of every world (empty: configs/sim/physics.yaml)
   int64_t steps = 100000000;
   int save_interval = 100;
   int keep_checkpoints = 3;

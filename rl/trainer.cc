@@ -203,11 +203,13 @@ struct Session {
       taskpack::PackOptions po;
       po.threads = cfg.threads;
       po.seed = env_seed;
+      po.physics_file = cfg.physics;
       env = std::make_unique<taskpack::TaskPack>(spec, po);
     } else {
       taskpack::WarpPackOptions wo;
       wo.seed = env_seed;
       wo.device = sim_device == "warp-cpu" ? "cpu" : "cuda";
+      wo.physics_file = cfg.physics;
       env = std::make_unique<taskpack::WarpPack>(spec, wo);
       if (sim_device == "warp-cpu") device = torch::Device(torch::kCPU);
     }
@@ -757,6 +759,7 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;
+  po.physics_file = c.physics;  // the run's own step
   taskpack::TaskPack env(eval_pack(c, split, episodes, false), po);
   const Actor actor = make_actor(env);
   env.reset();
@@ -837,6 +840,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
   taskpack::PackOptions po;
   po.threads = threads;
   po.seed = seed;
+  po.physics_file = c.physics;  // the run's own step
   taskpack::TaskPack env(ps, po);
   policy.check_fits(env, "the " + split + " split of " + c.suite);
   torch::manual_seed(seed);

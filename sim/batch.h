@@ -54,6 +54,13 @@ enum FaultBits : uint32_t {
   kFaultOverflow = 1u << 5,     // GPU backend: a world ran out of constraint rows or contacts
 };
 constexpr int kFaultKinds = 6;
+// Bit k's name in reports: bad_input, non_finite, exploded, mujoco_warning, mujoco_error,
+// overflow.
+inline const char* fault_kind_name(int k) {
+  static const char* const names[kFaultKinds] = {"bad_input",      "non_finite",   "exploded",
+                                                 "mujoco_warning", "mujoco_error", "overflow"};
+  return k >= 0 && k < kFaultKinds ? names[k] : "unknown";
+}
 
 struct BatchOptions {
   int threads = 0;        // 0: all cores (OpenMP default)

@@ -11,6 +11,7 @@
 #include <mujoco/mujoco.h>
 
 #include "core/error.h"
+#include "sim/batch.h"
 #include "sim/cuda_driver.h"
 
 #ifdef BIDEX_WARP
@@ -59,6 +60,7 @@ void WarpBackend::upload_bytes(const std::string&, const void*, size_t) {}
 WorldArray WarpBackend::allocate(const std::string&, int, size_t, int) { return {}; }
 uintptr_t WarpBackend::stream() const { return 0; }
 size_t WarpBackend::device_bytes() const { return 0; }
+std::map<std::string, double> WarpBackend::phase_profile(int) { return {}; }
 
 #else
 
@@ -272,6 +274,15 @@ size_t WarpBackend::device_bytes() const {
   return impl_->bridge.attr("memory")().cast<size_t>();
 }
 
+std::map<std::string, double> WarpBackend::phase_profile(int steps) {
+  py::gil_scoped_acquire gil;
+  try {
+    return impl_->bridge.attr("phase_profile")(steps).cast<std::map<std::string, double>>();
+  } catch (const py::error_already_set& e) {
+    throw Error("GPU backend: the phase profile failed: " + describe(e));
+  }
+}
+
 #endif  // BIDEX_WARP
 
 void require_gpu() {
@@ -304,6 +315,16 @@ int64_t WarpBackend::total_overflows() const {
   int64_t n = 0;
   for (int64_t c : download_as<int64_t>("overflow_count")) n += c;
   return n;
+}
+
+std::map<std::string, int64_t> WarpBackend::fault_kinds() const {
+  int64_t worlds[kFaultKinds] = {};
+  for (uint32_t bits : download_as<uint32_t>("fault_seen"))
+    for (int k = 0; k < kFaultKinds; ++k) worlds[k] += (bits >> k) & 1u;
+  std::map<std::string, int64_t> out;
+  for (int k = 0; k < kFaultKinds; ++k)
+    if (worlds[k]) out[fault_kind_name(k)] = worlds[k];
+  return out;
 }
 
 int WarpBackend::max_rows() const {

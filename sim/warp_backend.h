@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -62,8 +63,8 @@ class WarpBackend {
 
   // Named world-major arrays: qpos, qvel, ctrl, qfrc_actuator, qfrc_constraint, sensordata, xpos,
   // xquat, cvel, subtree_com, mocap_pos, mocap_quat, xfrc_applied, time (float32); base_wrench
-  // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_count and
-  // overflow_count (int64 per world), rows_max (int32: the most constraint rows the world has
+  // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_seen (uint32:
+  // every FaultBit the world has met), fault_count and overflow_count (int64 per world), rows_max (int32: the most constraint rows the world has
   // needed at the end of a step), reset (int32: 1 marks a world for the next reset).
   WorldArray array(const std::string& name) const;
 
@@ -103,6 +104,13 @@ class WarpBackend {
   // Faults and overflows over all worlds since construction (copies two arrays to the host).
   int64_t total_faults() const;
   int64_t total_overflows() const;
+  // Per fault kind (sim::fault_kind_name) met since construction, the worlds that met it
+  // (copies one array); kinds no world met are left out.
+  std::map<std::string, int64_t> fault_kinds() const;
+  // Benchmarks: GPU milliseconds per substep of raw stepping, split by MuJoCo Warp's own event
+  // scopes over `steps` control steps launched eagerly, keyed by scope path
+  // ("step/forward/fwd_position/collision", ...); each path sums its calls.
+  std::map<std::string, double> phase_profile(int steps);
   // The most constraint rows any world has needed since construction (copies one array): the
   // use of the room `options().njmax`.
   int max_rows() const;

@@ -60,6 +60,7 @@ def _check(
   nefc: wp.array(dtype=int),
   fault: wp.array(dtype=wp.uint32),
   fault_count: wp.array(dtype=wp.int64),
+  fault_seen: wp.array(dtype=wp.uint32),
   overflow_count: wp.array(dtype=wp.int64),
   rows_max: wp.array(dtype=wp.int32),
   reset: wp.array(dtype=wp.int32),
@@ -91,6 +92,7 @@ def _check(
   fault[w] = bits
   if bits != wp.uint32(0):
     fault_count[w] = fault_count[w] + wp.int64(1)
+    fault_seen[w] = fault_seen[w] | bits
     reset[w] = 1
   else:
     reset[w] = 0
@@ -187,6 +189,7 @@ class Bridge:
       self.base_wrench = wp.zeros((nworld, max(nwrench, 1)), dtype=float)
       self.fault = wp.zeros(nworld, dtype=wp.uint32)
       self.fault_count = wp.zeros(nworld, dtype=wp.int64)
+      self.fault_seen = wp.zeros(nworld, dtype=wp.uint32)  # every kind a world has met
       self.overflow_count = wp.zeros(nworld, dtype=wp.int64)
       self.rows_max = wp.zeros(nworld, dtype=wp.int32)
       self.reset_mask = wp.zeros(nworld, dtype=wp.int32)
@@ -232,7 +235,8 @@ class Bridge:
         mjw.step(m, d)
     wp.launch(_check, dim=self.nworld,
               inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
-                      d.nefc, self.fault, self.fault_count, self.overflow_count, self.rows_max,
+                      d.nefc, self.fault, self.fault_count, self.fault_seen, self.overflow_count,
+                      self.rows_max,
                       self.reset_mask])
 
   def _step_without_sensors(self):
@@ -306,6 +310,34 @@ class Bridge:
   def synchronize(self):
     wp.synchronize_device(self.device)
 
+  def phase_profile(self, steps):
+    """GPU time of raw stepping split by MuJoCo Warp's own event scopes (its EventTracer):
+    `steps` control steps launched eagerly (not as a graph), with the inputs as they are. Returns
+    {"step/forward/fwd_position/collision": milliseconds per substep, ...}, one entry per scope
+    path, each summed over its calls."""
+    if not self.device.is_cuda:
+      raise RuntimeError(f"--phases needs a CUDA device, got {self.device}: MuJoCo Warp's event "
+                         "timers are CUDA events")
+    from mujoco_warp._src.warp_util import EventTracer
+    with wp.ScopedDevice(self.device), wp.ScopedStream(self._stream):
+      self.raw_step()  # the kernels' modules loaded before timing
+      wp.synchronize_device(self.device)
+      with EventTracer() as tracer:
+        for _ in range(steps):
+          self.raw_step()
+        wp.synchronize_device(self.device)
+        trace = tracer.trace()
+    out = {}
+
+    def walk(node, prefix):
+      for name, (events, sub) in node.items():
+        path = f"{prefix}/{name}" if prefix else name
+        out[path] = out.get(path, 0.0) + sum(events) / (steps * self.substeps)
+        walk(sub, path)
+
+    walk(trace, "")
+    return out
+
   # ---- what the C++ side reads ----
 
   def alloc(self, name, width_bytes, rows):
@@ -325,6 +357,7 @@ class Bridge:
       "xquat": d.xquat, "cvel": d.cvel, "subtree_com": d.subtree_com, "mocap_pos": d.mocap_pos,
       "mocap_quat": d.mocap_quat, "xfrc_applied": d.xfrc_applied, "time": d.time,
       "base_wrench": self.base_wrench, "fault": self.fault, "fault_count": self.fault_count,
+      "fault_seen": self.fault_seen,
       "overflow_count": self.overflow_count, "rows_max": self.rows_max, "reset": self.reset_mask,
     }
     out = {}

@@ -3,6 +3,7 @@
 #include "tests/rl/rl_fixture.h"
 
 #include "core/error.h"
+#include "sim/physics.h"
 
 using namespace bidex;
 
@@ -95,6 +96,20 @@ TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected an
   require_config_error(res({"env.slots=2", "ppo.horizon=1", "ppo.minibatches=4"}),
                        "ppo.minibatches", "at most", "4");
   require_config_error([] { rl::default_train_config("dqn"); }, "algo", "ppo", "dqn");
+  require_config_error([] { resolve("hand_over", {"env.physics=no/such/physics.yaml"}); },
+                       "env.physics", "physics YAML", "no/such/physics.yaml");
+}
+
+TEST_CASE("env.physics names the step a run trains and evaluates on", "[rl][config]") {
+  CHECK(resolve("hand_over").physics.empty());  // configs/sim/physics.yaml
+  const std::string file = sim::default_physics_path();
+  CHECK(resolve("hand_over", {"env.physics=" + file}).physics == file);
+  // a run config written before the key existed trains on the default physics
+  std::string yaml = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
+  const auto at = yaml.find("physics:");
+  REQUIRE(at != std::string::npos);
+  yaml.erase(at, yaml.find('\n', at) - at);
+  CHECK(rl::parse_train_config(yaml, "old run").physics.empty());
 }
 
 TEST_CASE("an unknown key in a training YAML file names the file", "[rl][config]") {

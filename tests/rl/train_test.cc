@@ -3,6 +3,7 @@
 // (unknown task or algorithm, malformed override, a checkpoint of another task, a truncated
 // checkpoint), through the API and through the bidex binary.
 #include <csignal>
+#include <fstream>
 #include <thread>
 
 #include <unistd.h>
@@ -13,6 +14,7 @@
 #include "rl/checkpoint.h"
 #include "rl/metrics.h"
 #include "rl/trainer.h"
+#include "sim/physics.h"
 
 using namespace bidex;
 
@@ -75,6 +77,26 @@ TEST_CASE("a training run writes its config, metrics, curve and checkpoints", "[
   CHECK(m.obs_dim == 398);
   CHECK(m.act_dim == 40);
   CHECK(m.config_hash == rl::config_hash(yaml));
+}
+
+TEST_CASE("a run steps the physics its env.physics names", "[rl][train]") {
+  // the default physics named explicitly trains bitwise as the default; four substeps of
+  // 1/240 s do not
+  test::TaskTempDir tmp;
+  const std::string coarse = tmp.file("physics-4.yaml");
+  {
+    std::ofstream out(coarse);
+    out << "substeps: 4\n";
+  }
+  auto returns = [&](const std::string& name, const std::string& physics) {
+    std::vector<std::string> o = {"train.steps=96"};
+    if (!physics.empty()) o.push_back("env.physics=" + physics);
+    rl::train_new(test::tiny_yaml("hand_over", o), tmp.file(name), test::quiet());
+    return metric(tmp.file(name), "value_loss");  // observations and rewards differ
+  };
+  const auto base = returns("default", "");
+  CHECK(returns("named", sim::default_physics_path()) == base);
+  CHECK(returns("coarse", coarse) != base);
 }
 
 TEST_CASE("episode returns and success reach the metrics once episodes end", "[rl][train]") {

@@ -46,7 +46,7 @@ TEST_CASE("WarpBackend exposes world-major arrays of the model's sizes", "[warp]
               {"sensordata", m->nsensordata}, {"xpos", 3 * m->nbody},
               {"xquat", 4 * m->nbody}, {"cvel", 6 * m->nbody}, {"subtree_com", 3 * m->nbody},
               {"mocap_pos", 3 * m->nmocap}, {"base_wrench", model.nwrench()},
-              {"fault", 1}, {"reset", 1}};
+              {"fault", 1}, {"fault_seen", 1}, {"reset", 1}};
   for (const auto& f : want) {
     INFO(f.name);
     const WorldArray a = w.array(f.name);
@@ -161,9 +161,12 @@ TEST_CASE("WarpBackend flags a non-finite world, resets it alone and counts it",
   const auto xpos = w.download("xpos");
   for (float x : xpos) CHECK(std::isfinite(x));
   CHECK(w.total_faults() == 1);
+  // the kinds each world has met are kept past its reset
+  CHECK(w.fault_kinds() == std::map<std::string, int64_t>{{"non_finite", 1}});
   // the reset world steps on normally
   w.step();
   CHECK(w.download_as<uint32_t>("fault")[1] == 0);
+  CHECK(w.download_as<uint32_t>("fault_seen") == std::vector<uint32_t>{0, kFaultNonFinite, 0});
 }
 
 TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") {
@@ -176,6 +179,7 @@ TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") 
   CHECK((fault[0] & kFaultOverflow) != 0);
   CHECK((fault[1] & kFaultOverflow) != 0);
   CHECK(w.total_overflows() == 2);
+  CHECK(w.fault_kinds().at("overflow") == 2);
   // the rows the worlds needed are counted even past the room, and the advice names them
   const int need = w.max_rows();
   CHECK(need > 4);
