@@ -207,8 +207,8 @@ void add_bench_command(CLI::App& app) {
                    "Steps of two fresh backends compared for bitwise equality, per task (0: skip)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--phases", wc->phase_steps,
-                   "Control steps of raw stepping split by MuJoCo Warp's event scopes: GPU time "
-                   "in collision, constraints and the solver (0: skip)")
+                   "Control steps to reach a state on which raw stepping's parts are each timed: "
+                   "the shares of a substep in collision, constraint rows and the solver (0: skip)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--out,-o", *warp_out, "Write the JSON here (atomically) instead of stdout");
   warp->footer("Example:\n  bidex bench warp --task catch_underarm --worlds 2048,8192 --seconds 2");

@@ -6,11 +6,11 @@
 #       (physics-NAME.yaml) on catch_underarm and hand_over at 16,384 worlds (bench warp: raw
 #       MuJoCo Warp and the whole task step), and the CPU path on the machine's cores (bench
 #       task, 2,048 slots), the old step against the new
-#   bench/physics_step_run.sh build PARTS
+#   bench/physics_step_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/gpu_learn_run.sh build)
 #   bench/physics_step_run.sh phases OUTDIR TASKS NAME...
-#       candidate NAME's step on TASKS at 16,384 worlds (bench warp --phases): rates, and the GPU
-#       time of a substep split into collision, constraints and the solver
+#       candidate NAME's step on TASKS at 16,384 worlds (bench warp --phases): rates, and the
+#       shares of a substep's GPU time in collision, constraint rows and the solver
 #   bench/physics_step_run.sh learn OUTDIR NAME SEED STEPS TASK...
 #       PPO at the paper's settings (16,384 slots, 16 minibatches; hand_over without its goal
 #       bonus, as the original) on candidate NAME's step (env.physics), seed SEED, STEPS
@@ -42,7 +42,7 @@ phases)
     python3 - "$json" "$name" <<'PY'
 import json, sys
 for r in json.load(open(sys.argv[1]))["results"]:
-  ms = r["phase_ms_per_substep"]
+  ms = r["phase_ms"]
   print(f"{sys.argv[2]:>10} {r['task']:<18} raw {r['raw_slot_steps_per_s']:>8.0f} "
         f"task {r.get('task_slot_steps_per_s', 0):>8.0f} substep {ms.get('step', 0):.3f} ms: "
         f"collision {r['collision_share']:.2f} constraints {r['make_constraint_share']:.2f} "

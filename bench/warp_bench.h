@@ -24,8 +24,8 @@ struct WarpBenchConfig {
   uint64_t seed = 1;
   bool stages = true;                      // also the whole task step where its stages run
   int determinism_steps = 50;              // per task: two fresh backends compared (0: skip)
-  int phase_steps = 0;                     // > 0: that many control steps split by MuJoCo
-                                           // Warp's event scopes (collision, solver, ...)
+  int phase_steps = 0;                     // > 0: after that many control steps, each part of
+                                           // a substep timed (collision, solver, ...)
   std::string physics_file;                // empty: default
   bool progress = true;
 };

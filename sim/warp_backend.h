@@ -107,9 +107,9 @@ class WarpBackend {
   // Per fault kind (sim::fault_kind_name) met since construction, the worlds that met it
   // (copies one array); kinds no world met are left out.
   std::map<std::string, int64_t> fault_kinds() const;
-  // Benchmarks: GPU milliseconds per substep of raw stepping, split by MuJoCo Warp's own event
-  // scopes over `steps` control steps launched eagerly, keyed by scope path
-  // ("step/forward/fwd_position/collision", ...); each path sums its calls.
+  // Benchmarks: milliseconds per call of raw stepping's parts (collision, make_constraint,
+  // forward_before_solve, forward, step), each replayed on the state `steps` control steps of the
+  // current inputs reach (sim/warp_bridge.py, Bridge.phase_profile).
   std::map<std::string, double> phase_profile(int steps);
   // The most constraint rows any world has needed since construction (copies one array): the
   // use of the room `options().njmax`.

@@ -7,6 +7,8 @@ those graphs and its own kernels on the same stream; no Python runs per step on 
 On Warp's CPU device there are no graphs: the C++ side calls step() and the reset passes here.
 """
 
+import time
+
 import mujoco
 import mujoco_warp as mjw
 import numpy as np
@@ -311,31 +313,55 @@ class Bridge:
     wp.synchronize_device(self.device)
 
   def phase_profile(self, steps):
-    """GPU time of raw stepping split by MuJoCo Warp's own event scopes (its EventTracer):
-    `steps` control steps launched eagerly (not as a graph), with the inputs as they are. Returns
-    {"step/forward/fwd_position/collision": milliseconds per substep, ...}, one entry per scope
-    path, each summed over its calls."""
-    if not self.device.is_cuda:
-      raise RuntimeError(f"--phases needs a CUDA device, got {self.device}: MuJoCo Warp's event "
-                         "timers are CUDA events")
-    from mujoco_warp._src.warp_util import EventTracer
-    with wp.ScopedDevice(self.device), wp.ScopedStream(self._stream):
-      self.raw_step()  # the kernels' modules loaded before timing
-      wp.synchronize_device(self.device)
-      with EventTracer() as tracer:
-        for _ in range(steps):
-          self.raw_step()
-        wp.synchronize_device(self.device)
-        trace = tracer.trace()
+    """Time of raw stepping's parts, in milliseconds per call, each part replayed (as a graph on
+    a GPU) on the state that `steps` control steps of the current inputs reach:
+      collision: collision detection (mjw.collision), a function of the positions alone;
+      make_constraint: the constraint rows (mjw.make_constraint);
+      forward_before_solve: forward dynamics up to the constraint solver;
+      forward: forward dynamics (mjw.forward). Replayed on one state, its solver starts from the
+        same warm start each time, as the next step's would, so forward less
+        forward_before_solve is the solver's time (with what forward does after it);
+      step: a whole substep (mjw.step), replayed as stepping goes on.
+    Sensors are off in every part (the tasks read them once a control step)."""
+    m, d = self.m, self.d
+
+    def before_solve():
+      mjw.fwd_position(m, d, factorize=False)
+      mjw.fwd_velocity(m, d)
+      mjw.fwd_actuation(m, d)
+      mjw.fwd_acceleration(m, d, factorize=True)
+
+    parts = [("collision", lambda: mjw.collision(m, d)),
+             ("make_constraint", lambda: mjw.make_constraint(m, d)),
+             ("forward_before_solve", before_solve),
+             ("forward", lambda: mjw.forward(m, d)),
+             ("step", lambda: mjw.step(m, d))]
+    reps = max(int(steps), 1) * self.substeps
     out = {}
-
-    def walk(node, prefix):
-      for name, (events, sub) in node.items():
-        path = f"{prefix}/{name}" if prefix else name
-        out[path] = out.get(path, 0.0) + sum(events) / (steps * self.substeps)
-        walk(sub, path)
-
-    walk(trace, "")
+    with wp.ScopedDevice(self.device), wp.ScopedStream(self._stream):
+      for _ in range(max(int(steps), 1)):
+        self.raw_step()
+      flags = m.opt.disableflags
+      m.opt.disableflags = flags | int(mjw.DisableBit.SENSOR)
+      try:
+        for name, fn in parts:
+          fn()  # the kernels' modules loaded, outside the timing
+          graph = None
+          if self.device.is_cuda:
+            with wp.ScopedCapture() as cap:
+              fn()
+            graph = cap.graph
+          wp.synchronize_device(self.device)
+          t0 = time.perf_counter()
+          for _ in range(reps):
+            if graph is not None:
+              wp.capture_launch(graph, stream=self._stream)
+            else:
+              fn()
+          wp.synchronize_device(self.device)
+          out[name] = 1e3 * (time.perf_counter() - t0) / reps
+      finally:
+        m.opt.disableflags = flags
     return out
 
   # ---- what the C++ side reads ----
