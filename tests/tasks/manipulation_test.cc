@@ -250,7 +250,8 @@ TEST_CASE("manipulation tasks: observation tails hold what their names say", "[t
 TEST_CASE("bottle_cap terms, reward.variant paper: 0.2 - d_right - d_left + 30 d_open",
           "[tasks][manip][reward]") {
   TaskTempDir pdir;
-  auto env = make_env("bottle_cap", 1, 3, 0, edited_yaml(pdir, "bottle_cap", {{"variant", "paper"}}));
+  auto env =
+      make_env("bottle_cap", 1, 3, 0, edited_yaml(pdir, "bottle_cap", {{"variant", "paper"}}));
   CHECK(dynamic_cast<const tasks::BottleCap&>(env->task()).params().reward_variant == "paper");
   const int slide = joint_qpos(*env, "bottle_cap_slide");
   env->batch().data(0)->qpos[slide] = 0.02;  // cap 2 cm off its seat
@@ -374,8 +375,8 @@ TEST_CASE("bottle_cap: staying scores more than ending the episode at once",
   const auto still = run("", -1), flee = run("", quickest);
   const auto still_p = run(paper, -1), flee_p = run(paper, quickest);
   INFO("push " << quickest << "; default: still " << still[0] << " (" << still[1]
-                << " steps, worst step " << still[2] << "), flee " << flee[0] << " (" << flee[1] << " steps); paper: still "
-                         << still_p[0] << ", flee " << flee_p[0]);
+                << " steps, worst step " << still[2] << "), flee " << flee[0] << " ("
+                << flee[1] << " steps); paper: still " << still_p[0] << ", flee " << flee_p[0]);
   CHECK(flee[1] < still[1]);
   CHECK(still[2] > 0);  // every step of staying pays
   CHECK(still[0] > flee[0]);
