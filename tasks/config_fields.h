@@ -2,6 +2,9 @@
 // naming the file, the key, what was expected and what was found.
 #pragma once
 
+#include <string>
+#include <vector>
+
 #include "core/yaml.h"
 #include "sim/model.h"
 
@@ -26,5 +29,22 @@ HandPose read_hand_pose(const YamlView& v);
 int read_episode_length(const YamlView& root);
 void read_hand_poses(const YamlView& root, HandPose* right, HandPose* left);
 void read_base_scales(const YamlView& root, double* force_scale, double* torque_scale);
+
+// A reward section with two variants (tasks/README.md, "Reward variants"): `variant: original`
+// (the original code's terms and constants) or `variant: paper` (the paper's printed formula).
+// The section's own values are one variant's; a map named after the other variant (`paper:` or
+// `original:`) holds the values that differ, each replacing one of the section's keys. `base`
+// is the section itself (its readers allow the keys in `extra` beside their own); `other` is a
+// copy with the map's values put over it (its path names the map, so errors name the map's
+// keys); `use_other` says whether `variant` names the map's variant. A section without
+// `variant` has one formula: `base` and `other` are the section itself, `extra` is empty.
+// Readers read both (so that a mistake in either is an error) and keep the one chosen.
+struct RewardVariants {
+  YamlView base, other;
+  bool use_other = false;
+  std::string variant;              // "original", "paper", or "" (no variants)
+  std::vector<std::string> extra;   // {"variant", the map's name}, or none
+};
+RewardVariants read_reward_variants(const YamlView& reward);
 
 }  // namespace bidex::tasks

@@ -27,6 +27,7 @@ struct HandleProgram {
   double start_angle = 0;   // door leaves at every reset (rad)
   // reward
   bool palm_distance = true;
+  bool target_y_gap = false;  // doors: d_target is |y_R - y_L| (the original), not |h_R - h_L|
   double constant = 0, goal_weight = 0, goal_offset = 0, goal_gate = 0;
   int t_const = -1, t_right = -1, t_left = -1, t_goal = -1;
   // success, termination
@@ -55,7 +56,8 @@ BIDEX_HD Real handle_hand_distance(const HandleProgram& p, const sim::WorldRows<
   palm_point(p.hands[h], w, palm);
   return math::dist3(palm, hp);
 }
-// The reward's d_target: pot to goal, or handle to handle.
+// The reward's d_target: pot to goal, or handle to handle (their distance, or the original's
+// distance in y alone).
 template <class Real>
 BIDEX_HD Real handle_target_distance(const HandleProgram& p, const sim::WorldRows<Real>& w,
                                      const SlotState& st) {
@@ -67,7 +69,7 @@ BIDEX_HD Real handle_target_distance(const HandleProgram& p, const sim::WorldRow
   Real r[3], l[3];
   handle_point(p, w, 0, r);
   handle_point(p, w, 1, l);
-  return math::dist3(r, l);
+  return p.target_y_gap ? math::abs(r[1] - l[1]) : math::dist3(r, l);
 }
 
 // New episode: the simulation has restored the scene's state (hands at their mounts at rest,

@@ -19,19 +19,21 @@ namespace geo = handle_geometry;
 
 TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string original_name,
                             HumanAge age, Difficulty difficulty, std::string skill,
-                            int episode_length, const std::string& object) {
+                            int episode_length, const std::string& object, int version) {
   TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
                              std::move(age), difficulty, std::move(skill), episode_length,
                              true);
+  s.version = version;
   add_object_obs(s.obs, "object", "the " + object);
   add_goal_obs(s.obs, "goal", "the " + object + "'s goal");
   s.obs.add("right_handle.pos", 3, "the " + object + "'s right handle point (m), world frame");
   s.obs.add("left_handle.pos", 3, "the " + object + "'s left handle point (m), world frame");
   s.agents = agents_per_hand(s.obs, s.act);
-  s.reward_terms.push_back({"constant", "reward.constant (0.2 in the paper)"});
+  s.reward_terms.push_back({"constant", "reward.constant per step (the paper's 0.2)"});
   s.reward_terms.push_back({"right_hand", "-d_right: the right hand's distance to its handle (m)"});
   s.reward_terms.push_back({"left_hand", "-d_left: the left hand's distance to its handle (m)"});
-  s.reward_terms.push_back({"goal", "reward.goal_weight x (reward.goal_offset - d_target)"});
+  s.reward_terms.push_back({"goal", "reward.goal_weight x (reward.goal_offset - d_target) while "
+                                    "both d are below reward.goal_gate (0: always)"});
   return s;
 }
 
@@ -90,13 +92,26 @@ HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
     p.pot.goal = read_vec3(d.child("goal"));
   }
   {
-    auto r = root.child("reward");
-    r.allow_keys({"hand_point", "constant", "goal_weight", "goal_offset", "goal_gate"});
-    p.palm_distance = word(r, "hand_point", "palm", "fingertips");
-    p.constant = read_number(r, "constant", -1e3, 1e3, "a constant in [-1000, 1000]");
-    p.goal_weight = read_number(r, "goal_weight", -1e3, 1e3, "a weight in [-1000, 1000]");
-    p.goal_offset = read_number(r, "goal_offset", -1e3, 1e3, "an offset in [-1000, 1000] m");
-    p.goal_gate = read_number(r, "goal_gate", 0, 100, "a distance in [0, 100] m (0: off)");
+    // both variants are read (so that either's mistakes are errors); the chosen one is kept
+    const auto rv = read_reward_variants(root.child("reward"));
+    auto read = [&](const YamlView& r, HandleParams& q) {
+      std::vector<std::string> keys = {"hand_point", "constant", "goal_weight", "goal_offset",
+                                       "goal_gate"};
+      if (door) keys.push_back("target");
+      keys.insert(keys.end(), rv.extra.begin(), rv.extra.end());
+      r.allow_keys(keys);
+      q.palm_distance = word(r, "hand_point", "palm", "fingertips");
+      if (door) q.target_y_gap = word(r, "target", "y_gap", "distance");
+      q.constant = read_number(r, "constant", -1e3, 1e3, "a constant in [-1000, 1000]");
+      q.goal_weight = read_number(r, "goal_weight", -1e3, 1e3, "a weight in [-1000, 1000]");
+      q.goal_offset = read_number(r, "goal_offset", -1e3, 1e3, "an offset in [-1000, 1000] m");
+      q.goal_gate = read_number(r, "goal_gate", 0, 100, "a distance in [0, 100] m (0: off)");
+    };
+    HandleParams other = p;
+    read(rv.base, p);
+    read(rv.other, other);
+    if (rv.use_other) p = other;
+    p.reward_variant = rv.variant;
   }
   {
     auto s = root.child("success");
@@ -233,6 +248,7 @@ HandleTask::HandleTask(const TaskSpec& spec, HandleParams params)
   for (int k = 0; k < 3; ++k) g.goal_pos[k] = g.pot ? p_.pot.goal[k] : p_.door.pos[k];
   g.start_angle = p_.door.start_angle;
   g.palm_distance = p_.palm_distance;
+  g.target_y_gap = p_.target_y_gap;
   g.constant = p_.constant;
   g.goal_weight = p_.goal_weight;
   g.goal_offset = p_.goal_offset;

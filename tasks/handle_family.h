@@ -49,8 +49,11 @@ struct HandleParams {
     double friction = 0.1;           // door geoms' sliding friction
   } door;
 
-  // reward: constant - d_right - d_left + goal_weight (goal_offset - d_target)
+  // reward: constant - d_right - d_left + goal_weight (goal_offset - d_target); the variant
+  // read ("original", "paper"; tasks/README.md, "Reward variants")
+  std::string reward_variant;
   bool palm_distance = true;         // d_hand: palm point (true) or sum of 5 fingertip points
+  bool target_y_gap = false;         // doors' d_target: |y_R - y_L| (true) or |h_R - h_L|
   double constant = 0.2;
   double goal_weight = 3, goal_offset = 0.985;
   double goal_gate = 0;              // > 0: the goal term only while both d_hand < goal_gate
@@ -69,10 +72,10 @@ struct HandleParams {
 HandleParams load_handle_params(const std::string& file, const TaskSpec& spec);
 
 // The spec of a family member: layouts (the paper's tables: two free hands, the object block,
-// the goal block, right then left handle), agents and reward terms.
+// the goal block, right then left handle), agents and reward terms; `version` as TaskSpec's.
 TaskSpec handle_family_spec(std::string id, std::string paper_name, std::string original_name,
                             HumanAge age, Difficulty difficulty, std::string skill,
-                            int episode_length, const std::string& object);
+                            int episode_length, const std::string& object, int version = 1);
 
 std::unique_ptr<Task> make_handle_task(const TaskSpec& spec, const std::string& config_file);
 

@@ -89,8 +89,9 @@ std::vector<Num> termination_keys(TableKind k) {
   return {};
 }
 
-void read_numbers(const YamlView& v, const std::vector<Num>& keys, TableParams& p) {
-  std::vector<std::string> names;
+void read_numbers(const YamlView& v, const std::vector<Num>& keys, TableParams& p,
+                  const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> names = extra;
   for (auto& n : keys) names.push_back(n.key);
   v.allow_keys(names);
   for (auto& n : keys) p.*n.field = read_number(v, n.key, n.lo, n.hi, n.what);
@@ -160,7 +161,15 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
     p.hand_dof_noise = read_number(r, "hand_dof_noise", 0, 1, "a fraction of the joint range in [0, 1]");
   }
   read_base_scales(root, &p.force_scale, &p.torque_scale);
-  read_numbers(root.child("reward"), reward_keys(kind), p);
+  {
+    // both variants are read (so that either's mistakes are errors); the chosen one is kept
+    const auto rv = read_reward_variants(root.child("reward"));
+    TableParams other = p;
+    read_numbers(rv.base, reward_keys(kind), p, rv.extra);
+    read_numbers(rv.other, reward_keys(kind), other, rv.extra);
+    if (rv.use_other) p = other;
+    p.reward_variant = rv.variant;
+  }
   if (kind != TableKind::kSwitch) {
     auto t = root.child("termination");
     read_numbers(t, termination_keys(kind), p);
@@ -174,13 +183,14 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
 
 TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_name,
                            std::string original_name, HumanAge age, std::string skill,
-                           int episode_length) {
+                           int episode_length, int version) {
   TaskSpec s = two_hand_spec(std::move(id), std::move(paper_name), std::move(original_name),
                              std::move(age), kind == TableKind::kPourWater ? Difficulty::kHard : Difficulty::kEasy, std::move(skill), episode_length,
                              true);
   // the original's Kettle (pour_water) creates its hands with filter -1, its other table tasks
   // with 0
   s.hands_collide = kind != TableKind::kPourWater;
+  s.version = version;
   const char* what = "";
   const char* goal = "";
   const char* rot = "";

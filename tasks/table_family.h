@@ -35,7 +35,9 @@ struct TableParams {
   double reset_angle = 0;           // scissors: the joint's start angle (rad)
   // free bases: action +-1 gives force_scale * 1e5 / 60 N and torque_scale * 1e3 / 60 N m
   double force_scale = 0, torque_scale = 0;
-  // reward (which are used depends on the kind; README of each task)
+  // reward (which are used depends on the kind; README of each task); the variant read
+  // ("original", "paper", or "" where the task has one formula; tasks/README.md)
+  std::string reward_variant;
   double offset = 0;                // the constant term
   double gate = 0;                  // fingertip-distance sums below which the goal term pays
   double goal_scale = 0;            // the goal term's factor
@@ -58,7 +60,7 @@ TableParams load_table_params(const std::string& file, TableKind kind);
 // 7 + 4, two points 3 + 3 = 428) and the reward terms of its kind.
 TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_name,
                            std::string original_name, HumanAge age, std::string skill,
-                           int episode_length);
+                           int episode_length, int version = 1);
 
 std::unique_ptr<Task> make_table_task(TableKind kind, const TaskSpec& spec,
                                       const std::string& config_file);

@@ -1,12 +1,15 @@
 // bottle_cap: the spec, the YAML, the scene and the host half of BottleCap (bottle_cap.h).
 #include <cmath>
 #include <cstdio>
+#include <string>
+#include <vector>
 
 #include <mujoco/mujoco.h>
 
 #include "core/error.h"
 #include "core/yaml.h"
 #include "tasks/bottle_cap/bottle_cap.h"
+#include "tasks/config_fields.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -35,12 +38,23 @@ BottleCapParams load(const std::string& file) {
     p.cap_point = read_number(b, "cap_point", -1, 1, "an offset in [-1, 1] m");
   }
   {
-    auto r = root.child("reward");
-    r.allow_keys({"offset", "open_scale", "goal_gate", "success_opening"});
-    p.offset = read_number(r, "offset", -100, 100, "an offset in [-100, 100]");
-    p.open_scale = read_number(r, "open_scale", 0, 1e4, "a scale in [0, 1e4]");
-    p.goal_gate = read_number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
-    p.success_opening = read_number(r, "success_opening", 0, 1, "a distance in [0, 1] m");
+    // both variants are read (so that either's mistakes are errors); the chosen one is kept
+    const auto rv = read_reward_variants(root.child("reward"));
+    auto read = [&](const YamlView& r, BottleCapParams& q) {
+      std::vector<std::string> keys = {"offset", "open_scale", "goal_gate", "success_opening"};
+      keys.insert(keys.end(), rv.extra.begin(), rv.extra.end());
+      r.allow_keys(keys);
+      q.offset = read_number(r, "offset", -100, 100, "an offset in [-100, 100]");
+      q.open_scale = read_number(r, "open_scale", 0, 1e4, "a scale in [0, 1e4]");
+      q.goal_gate =
+          read_number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
+      q.success_opening = read_number(r, "success_opening", 0, 1, "a distance in [0, 1] m");
+    };
+    BottleCapParams other = p;
+    read(rv.base, p);
+    read(rv.other, other);
+    if (rv.use_other) p = other;
+    p.reward_variant = rv.variant;
   }
   {
     auto t = root.child("termination");
@@ -85,14 +99,16 @@ TaskSpec make_spec() {
       "bottle_cap", "Open Bottle Cap", "ShadowHandBottleCap", HumanAge{30, 30, "30", false},
       Difficulty::kMedium, "Uses hands to twist things, like turning doorknobs or unscrewing lids.",
       125);
+  s.version = 2;  // v2: the original code's reward by default (README, "Reward")
   add_object_obs(s.obs, "bottle", "the bottle");
   s.obs.add("cap.pos", 3, "the cap's centre (m), world frame");
   s.agents = agents_per_hand(s.obs, s.act);
   s.reward_terms = {
-      {"offset", "reward.offset (the paper's 0.2)"},
+      {"offset", "reward.offset per step (the original's 2, the paper's 0.2)"},
       {"right_hand", "-d_right: sum of the right fingertips' distances to the cap point (m)"},
       {"left_hand", "-d_left: distance of the left palm point to the bottle's origin (m)"},
-      {"cap_open", "open_scale x the cap's distance from its closed seat (m)"},
+      {"cap_open", "open_scale x the cap's distance from its closed seat (m), while d_right <= "
+                   "reward.goal_gate (0: always)"},
   };
   return s;
 }

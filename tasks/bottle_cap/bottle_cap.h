@@ -4,6 +4,8 @@
 // and a free twist).
 #pragma once
 
+#include <string>
+
 #include "tasks/bottle_cap/bottle_cap_body.h"
 #include "tasks/manipulation_family.h"
 #include "tasks/body_task.h"
@@ -20,7 +22,9 @@ struct BottleCapParams {
   double cap_damping = 1;         // N s/m
   double twist_damping = 0.001;   // N m s/rad
   double cap_point = 0.15;        // c = bottle origin + R (0, 0, cap_point)
-  // reward: offset - d_right - d_left + open_scale d_open
+  // reward: offset - d_right - d_left + open_scale d_open; the variant read ("original",
+  // "paper"; tasks/README.md, "Rewards")
+  std::string reward_variant;
   double offset = 0.2, open_scale = 30;
   double goal_gate = 0;           // > 0: the opening term only while d_right <= it
   double success_opening = 0.03;  // m
@@ -35,6 +39,7 @@ BIDEX_STAGE_BODIES(BottleCap, BottleCapProgram, bottle_cap_);
 class BottleCap : public BodyTask<manip::ManipTask, BottleCapBodies> {
  public:
   BottleCap(const TaskSpec& spec, BottleCapParams p);
+  const BottleCapParams& params() const { return p_; }
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;

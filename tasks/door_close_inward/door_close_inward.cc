@@ -5,9 +5,11 @@
 
 namespace bidex::tasks {
 
+// v2: the original code's reward by default (README, "Reward")
 BIDEX_DEFINE_HANDLE_TASK(door_close_inward, "Door Close Inward", "ShadowHandDoorCloseInward",
                          HumanAge{13, 13, "13", false},
                          Difficulty::kEasy, "Opens and closes cupboard and oven doors.",
-                         /*episode_length=*/250, /*object=*/"door")
+                         /*episode_length=*/250, /*object=*/"door",
+                         /*version=*/2)
 
 }  // namespace bidex::tasks

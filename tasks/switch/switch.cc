@@ -5,9 +5,10 @@
 
 namespace bidex::tasks {
 
+// v2: the press term's zero point is the original's (README, "Reward")
 BIDEX_DEFINE_TABLE_TASK(switch, TableKind::kSwitch, "Turn Button On/Off", "ShadowHandSwitch",
                         HumanAge{11, 11, "11", false},
                         "Pushes hard things such as the button of a toy phone.",
-                        /*episode_length=*/125)
+                        /*episode_length=*/125, /*version=*/2)
 
 }  // namespace bidex::tasks

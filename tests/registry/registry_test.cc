@@ -37,8 +37,8 @@ const std::string kOriginal =
     "original code's published PPO learning curves, final value near 1e8 steps, mean of 10 seeds";
 const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"hand_over", 30.8},          {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
-    {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_outward", 198.206},
-    {"lift_underarm", 1341.65},   {"scissors", 381.835},         {"door_close_inward", 369.522}};
+    {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"lift_underarm", 1341.65},
+    {"scissors", 381.835}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
@@ -131,8 +131,10 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.reference("scissors", "ground_truth")->source.find(
               "gpu-references-h100/references-ml20-test.json") != std::string::npos);
     CHECK_FALSE(reg.reference("pen", "ground_truth"));
-    CHECK_FALSE(reg.reference("door_close_outward", "ground_truth"));
-    CHECK_FALSE(reg.reference("door_open_inward", "ground_truth"));
+    // the doors' version 1 values were withdrawn with their change of reward (issue 36)
+    for (const char* door : {"door_open_outward", "door_close_inward", "door_open_inward",
+                             "door_close_outward"})
+      CHECK_FALSE(reg.reference(door, "ground_truth"));
     // every paper task has a random score with its source (spot values from references.yaml)
     for (auto& t : reg.tasks(false)) {
       INFO(t.id);
@@ -141,7 +143,9 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
       CHECK(r->source.find("bidex eval --random") != std::string::npos);
     }
     CHECK(reg.reference("hand_over", "random")->value == Approx(3.2683));
-    CHECK(reg.reference("switch", "random")->value == Approx(8555.36));
+    CHECK(reg.reference("switch", "random")->value == Approx(86.605));  // version 2
+    CHECK(reg.reference("switch", "random")->source.find(
+              "random-references-issue36-2core.json") != std::string::npos);
 
     // the suites of configs/suites (the paper's six and the goal distributions), with their
     // members and reward scales
@@ -172,7 +176,7 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
-  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "29");
+  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "27");  // 7 ground truths, 20 random
   CHECK(raw.value("SELECT count(*) FROM suites") ==
         std::to_string(taskpack::known_suites().size()));
   CHECK(raw.value("SELECT count(*) FROM suite_members WHERE suite = 'ML20'") == "20");
@@ -188,7 +192,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   }
   Registry reg(path);
   CHECK(reg.tasks(false).size() == 20);
-  CHECK(reg.references().size() == 29);
+  CHECK(reg.references().size() == 27);
   CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
   CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
   CHECK(reg.reference("hand_over", "random")->value == 0.5);
@@ -516,7 +520,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
     CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(30.8));
-    CHECK(reg.references().size() == 2 + 9 + 19);  // the shipped ground truths and 19 random
+    CHECK(reg.references().size() == 2 + 7 + 19);  // the shipped ground truths and 19 random
     // the new tables work, also for the old runs
     registry::RunRecord done = runs[1];
     done.status = "finished";
@@ -699,7 +703,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   GroundTruthOnly references(dir);  // the random scores are set here
   Registry reg(dir.file("r.sqlite"));
   reg.set_reference({"hand_over", "random", 2.0, "test"});
-  reg.set_reference({"door_open_outward", "random", 98.206, "test"});  // ground truth 198.206
+  reg.set_reference({"lift_underarm", "random", 341.65, "test"});  // ground truth 1341.65
   auto task_run = [&](const std::string& task, double ret) {
     registry::RunRecord r;
     r.algo = "ppo";
@@ -711,7 +715,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   };
   task_run("hand_over", 30.8);                           // older: replaced by the next
   const int64_t ho = task_run("hand_over", 16.4);        // (16.4 - 2) / 28.8 = 0.5
-  const int64_t doo = task_run("door_open_outward", 123.206);  // 25 / 100 = 0.25
+  const int64_t lift = task_run("lift_underarm", 591.65);  // 250 / 1000 = 0.25
   task_run("catch_underarm", 10);                        // no random score: not normalised
   const auto rep = registry::age_report(reg);
   REQUIRE(rep.rows.size() == 20);
@@ -725,9 +729,9 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   CHECK(row("hand_over").run == ho);
   REQUIRE(row("hand_over").normalised);
   CHECK(*row("hand_over").normalised == Approx(0.5));
-  REQUIRE(row("door_open_outward").normalised);
-  CHECK(*row("door_open_outward").normalised == Approx(0.25));
-  CHECK(row("door_open_outward").run == doo);
+  REQUIRE(row("lift_underarm").normalised);
+  CHECK(*row("lift_underarm").normalised == Approx(0.25));
+  CHECK(row("lift_underarm").run == lift);
   CHECK(*row("catch_underarm").mean_return == 10);
   CHECK_FALSE(row("catch_underarm").normalised);
   CHECK(*row("catch_underarm").ground_truth == Approx(17.8));
@@ -737,7 +741,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   size_t n = 0;
   for (size_t p = svg.find("<circle"); p != std::string::npos; p = svg.find("<circle", p + 1)) ++n;
   CHECK(n == 2);
-  CHECK(svg.find(">hand_over<") < svg.find(">door_open_outward<"));
+  CHECK(svg.find(">hand_over<") < svg.find(">lift_underarm<"));
   CHECK(svg.find(">pen<") == std::string::npos);
   CHECK_THAT(svg, Catch::Contains("left out, no normalised score: push_block, pen"));
   CHECK_THROWS_AS(registry::age_report(reg, "", 999), Error);

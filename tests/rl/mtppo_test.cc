@@ -190,8 +190,8 @@ TEST_CASE("bidex train and eval reject suite mistakes with clear messages", "[rl
 
 TEST_CASE("bidex eval --zero plays the zero action as a baseline beside --random", "[rl][mtppo]") {
   test::TaskTempDir tmp;
-  // door_close_outward: a random policy ends its episodes early (the paper's reward is negative
-  // far from the handles, and the task ends when a palm strays), the zero action never does
+  // door_close_outward: a random policy ends its episodes early (the task ends when a hand
+  // strays 3 m from its handle), the zero action never does
   auto score = [&](const std::string& flag, int seed) {
     const std::string json = tmp.file(flag + std::to_string(seed) + ".json");
     auto r = test::bidex_run("eval " + flag + " --task door_close_outward --episodes 2 "

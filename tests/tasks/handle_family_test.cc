@@ -36,13 +36,31 @@ struct DoorFacts {
   bool open_task;    // success when the handles are wider apart than 0.5 m
   double max_hand;   // termination distance (sum of fingertip distances)
   std::array<double, 3> right_mount;
+  double constant;   // the original code's constant per step (the paper's: 0.2)
 };
 const std::array<DoorFacts, 4> kDoors = {{
-    {"door_open_outward", false, 0, true, 1.5, {0.55, 0.2, 0.6}},
-    {"door_close_inward", true, M_PI / 2, false, 1.5, {0.9, 0.5, 0.6}},
-    {"door_open_inward", true, 0, true, 1.5, {0.55, 0.2, 0.6}},
-    {"door_close_outward", false, M_PI / 2, false, 3.0, {0.55, 0.2, 0.6}},
+    {"door_open_outward", false, 0, true, 1.5, {0.55, 0.2, 0.6}, 2},
+    {"door_close_inward", true, M_PI / 2, false, 1.5, {0.9, 0.5, 0.6}, 2},
+    {"door_open_inward", true, 0, true, 1.5, {0.55, 0.2, 0.6}, 2},
+    {"door_close_outward", false, M_PI / 2, false, 3.0, {0.55, 0.2, 0.6}, 6},
 }};
+
+// The door's goal term under a reward variant (upstream.md 6.7, the paper's formulas), from
+// the handle points and the fingertip sums: the original (default) pays 2 |dy| (open) or
+// 1 - 2 |dy| (close), dy the handles' y-distance, while both sums are below 0.5 m; the paper
+// pays 2 d (open) or 2 (1 - d), d the handles' distance, always.
+double door_goal(const DoorFacts& f, bool paper, const std::array<double, 3>& hr,
+                 const std::array<double, 3>& hl, double dr, double dl) {
+  if (paper) {
+    const double d = std::sqrt((hr[0] - hl[0]) * (hr[0] - hl[0]) +
+                               (hr[1] - hl[1]) * (hr[1] - hl[1]) +
+                               (hr[2] - hl[2]) * (hr[2] - hl[2]));
+    return f.open_task ? 2 * d : 2 * (1 - d);
+  }
+  if (!(dr < 0.5 && dl < 0.5)) return 0;
+  const double dy = std::abs(hr[1] - hl[1]);
+  return f.open_task ? 2 * dy : 1 - 2 * dy;
+}
 
 const tasks::HandleTask& handle_task(tasks::TaskEnv& env) {
   return dynamic_cast<const tasks::HandleTask&>(env.task());
@@ -85,6 +103,19 @@ std::array<double, 3> door_handle(const std::array<double, 3>& door, double heig
   const double phi = (inward ? 1 : -1) * s * q;  // rotation about +z
   return {door[0] + lx * std::cos(phi) - ly * std::sin(phi),
           door[1] + s * 0.42 + lx * std::sin(phi) + ly * std::cos(phi), door[2] + height};
+}
+
+// Shifts hand h's free base (world-axis slides) so that its fingertip points' centroid is at p.
+void tips_to(tasks::TaskEnv& env, int s, int h, const std::array<double, 3>& p) {
+  mjData* d = env.batch().data(s);
+  std::array<double, 3> c{};
+  for (const char* t : kTipBodies) {
+    const auto x = body_point(d, body_id(env, prefix(h) + t), {0, 0, 0.02});
+    for (int k = 0; k < 3; ++k) c[k] += x[k] / 5;
+  }
+  const auto& hi = env.model().hands()[static_cast<size_t>(h)];
+  for (int k = 0; k < 3; ++k) d->qpos[hi.base_qpos_adr + k] += p[k] - c[k];
+  sync(env, s);
 }
 
 void set_hinges(tasks::TaskEnv& env, int s, double qr, double ql) {
@@ -277,42 +308,212 @@ TEST_CASE("lift_underarm: the goal gate opens with both palms at their handles",
   CHECK(terms[sp.term_index("goal")] == Approx(3 * (0.985 - 0.4)).margin(1e-9));
 }
 
-TEST_CASE("doors: reward terms on crafted states", "[tasks][handle][reward]") {
+TEST_CASE("lift_underarm: reward.variant original is the original code's gated goal term",
+          "[tasks][handle][reward]") {
+  // the original: 0.2 - d_right - d_left + 3 (0.385 - d_target) while both palms are within
+  // 0.08 m of their handles, else 0.2 - d_right - d_left (upstream.md 6.6)
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "lift_underarm", {{"variant", "original"}});
+  auto env = make_env("lift_underarm", 1, 1, 1, file);
+  env->reset();
+  CHECK(handle_task(*env).params().reward_variant == "original");
+  const auto& sp = env->spec();
+  std::vector<double> terms;
+  evaluate(*env, 0, terms);
+  CHECK(terms[sp.term_index("constant")] == Approx(0.2));
+  CHECK(terms[sp.term_index("goal")] == 0.0);  // palms 0.14 m from the handles
+  // palms at the handles: 3 (0.385 - 0.4) with the pot on the table
+  const std::array<std::array<double, 3>, 2> handle = {{{0, -0.45, 0.51}, {0, -0.75, 0.51}}};
+  mjData* d = env->batch().data(0);
+  for (int h = 0; h < 2; ++h) {
+    const auto palm = palm_of(*env, 0, h);
+    const auto& hi = env->model().hands()[static_cast<size_t>(h)];
+    for (int k = 0; k < 3; ++k) d->qpos[hi.base_qpos_adr + k] += handle[h][k] - palm[k];
+  }
+  sync(*env, 0);
+  evaluate(*env, 0, terms);
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * (0.385 - 0.4)).margin(1e-9));
+  // the pot and both hands lifted 0.4 m: the pot at its goal, 3 x 0.385
+  place_object(*env, 0, "pot", {0, -0.6, 0.85}, {1, 0, 0, 0});
+  for (const auto& h : env->model().hands()) d->qpos[h.base_qpos_adr + 2] += 0.4;
+  sync(*env, 0);
+  CHECK_FALSE(evaluate(*env, 0, terms));
+  CHECK(terms[sp.term_index("goal")] == Approx(3 * 0.385).margin(1e-9));
+  CHECK(env->slot(0).task->success);
+}
+
+TEST_CASE("doors: reward terms on crafted states, both variants", "[tasks][handle][reward]") {
+  for (const auto& f : kDoors)
+    for (const bool paper : {false, true}) {
+      INFO(f.id << (paper ? ", reward.variant paper" : ", default (original)"));
+      TaskTempDir dir;
+      const auto file = paper ? edited_yaml(dir, f.id, {{"variant", "paper"}}) : std::string();
+      auto env = make_env(f.id, 1, 1, 1, file);
+      env->reset();
+      const auto& sp = env->spec();
+      CHECK(handle_task(*env).params().reward_variant == (paper ? "paper" : "original"));
+      const double height = handle_task(*env).params().door.handle_height;
+      const std::array<double, 3> door = {0, 0, 0.7};
+      // hands at their mounts (the goal gate shut), then with their fingertips at the handles
+      for (const bool at_handles : {false, true})
+        for (auto [qr, ql] : {std::pair{0.3, 0.7}, std::pair{1.2, 0.1}, std::pair{0.0, 1.5}}) {
+          INFO("hinges " << qr << ", " << ql << (at_handles ? ", hands at the handles" : ""));
+          env->reset();
+          set_hinges(*env, 0, qr, ql);
+          const auto hr = door_handle(door, height, f.inward, 0, qr);
+          const auto hl = door_handle(door, height, f.inward, 1, ql);
+          if (at_handles) {
+            tips_to(*env, 0, 0, hr);
+            tips_to(*env, 0, 1, hl);
+          }
+          std::vector<double> terms;
+          const bool end = evaluate(*env, 0, terms);
+          const double dr = tip_sum(*env, 0, 0, hr), dl = tip_sum(*env, 0, 1, hl);
+          if (at_handles) {  // the gate is open
+            CHECK(dr < 0.5);
+            CHECK(dl < 0.5);
+          } else {
+            CHECK(dr > 0.5);
+          }
+          CHECK(terms[sp.term_index("constant")] == Approx(paper ? 0.2 : f.constant));
+          CHECK(terms[sp.term_index("right_hand")] == Approx(-dr).margin(1e-9));
+          CHECK(terms[sp.term_index("left_hand")] == Approx(-dl).margin(1e-9));
+          CHECK(terms[sp.term_index("goal")] ==
+                Approx(door_goal(f, paper, hr, hl, dr, dl)).margin(1e-9));
+          CHECK(end == (dr >= f.max_hand || dl >= f.max_hand));
+          const auto o = observe(*env, 0);
+          for (int k = 0; k < 3; ++k) {
+            CHECK(o[422 + k] == Approx(hr[k]).margin(1e-6));
+            CHECK(o[425 + k] == Approx(hl[k]).margin(1e-6));
+          }
+          // the door block: its fixed pose, at rest; the goal block: the same pose
+          CHECK(o[398] == Approx(0));
+          CHECK(o[400] == Approx(0.7));
+          CHECK(o[404] == Approx(1));
+          for (int k = 405; k < 411; ++k) CHECK(o[k] == Approx(0).margin(1e-9));
+          CHECK(o[413] == Approx(0.7));
+          CHECK(o[421] == Approx(1));
+        }
+    }
+}
+
+TEST_CASE("doors: a YAML extending the default selects the paper variant",
+          "[tasks][handle][config]") {
+  TaskTempDir dir;
+  const std::string file = dir.write(
+      "paper.yaml", std::string("extends: ") + BIDEX_SOURCE_DIR +
+                        "/tasks/door_close_outward/door_close_outward.yaml\n"
+                        "reward: {variant: paper}\n");
+  auto env = make_env("door_close_outward", 1, 1, 1, file);
+  const auto& p = handle_task(*env).params();
+  CHECK(p.reward_variant == "paper");
+  CHECK(p.constant == 0.2);
+  CHECK(p.goal_gate == 0);
+  CHECK_FALSE(p.target_y_gap);
+  CHECK(p.goal_offset == 1);
+  // and the default
+  auto def = make_env("door_close_outward", 1, 1, 1);
+  const auto& q = handle_task(*def).params();
+  CHECK(q.reward_variant == "original");
+  CHECK(q.constant == 6);
+  CHECK(q.goal_gate == 0.5);
+  CHECK(q.target_y_gap);
+  CHECK(q.goal_offset == 0.5);
+}
+
+TEST_CASE("doors: hand-worked goal terms of the original and the paper formulas",
+          "[tasks][handle][reward]") {
+  // fingertips at the handles, the right leaf at 0.3 rad and the left at 0.7; the handle points
+  // worked out by hand from the geometry (hinges at y = +-0.42, handles 0.39 m in, 0.04 m out):
+  // outward, right: y = 0.42 - 0.04 sin 0.3 - 0.39 cos 0.3 = 0.03560
+  //          left:  y = -0.42 + 0.04 sin 0.7 + 0.39 cos 0.7 = -0.09594, |dy| = 0.13154
+  // inward (the other way round: the 0.04 sin q terms change sign): 0.05924 and -0.14748,
+  // |dy| = 0.20672
   for (const auto& f : kDoors) {
     INFO(f.id);
-    auto env = make_env(f.id, 1, 1, 1);
-    env->reset();
-    const auto& sp = env->spec();
-    const double height = handle_task(*env).params().door.handle_height;
-    const std::array<double, 3> door = {0, 0, 0.7};
-    for (auto [qr, ql] : {std::pair{0.3, 0.7}, std::pair{1.2, 0.1}, std::pair{0.0, 1.5}}) {
-      set_hinges(*env, 0, qr, ql);
+    const double sr = f.inward ? 1 : -1;
+    const double yr = 0.42 + sr * 0.04 * std::sin(0.3) - 0.39 * std::cos(0.3);
+    const double yl = -0.42 - sr * 0.04 * std::sin(0.7) + 0.39 * std::cos(0.7);
+    const double xr = 0.04 * std::cos(0.3) + sr * 0.39 * std::sin(0.3);
+    const double xl = 0.04 * std::cos(0.7) + sr * 0.39 * std::sin(0.7);
+    const double dy = yr - yl, dist = std::sqrt(dy * dy + (xr - xl) * (xr - xl));
+    CHECK(dy == Approx(f.inward ? 0.20672 : 0.13154).margin(1e-5));
+    for (const bool paper : {false, true}) {
+      TaskTempDir dir;
+      const auto file = paper ? edited_yaml(dir, f.id, {{"variant", "paper"}}) : std::string();
+      auto env = make_env(f.id, 1, 1, 1, file);
+      env->reset();
+      set_hinges(*env, 0, 0.3, 0.7);
+      const auto& o = observe(*env, 0);
+      tips_to(*env, 0, 0, {o[422], o[423], o[424]});
+      tips_to(*env, 0, 1, {o[425], o[426], o[427]});
       std::vector<double> terms;
-      const bool end = evaluate(*env, 0, terms);
-      const auto hr = door_handle(door, height, f.inward, 0, qr);
-      const auto hl = door_handle(door, height, f.inward, 1, ql);
-      const double dr = tip_sum(*env, 0, 0, hr), dl = tip_sum(*env, 0, 1, hl);
-      const double dt = dist(hr, hl);
-      CHECK(terms[sp.term_index("constant")] == Approx(0.2));
-      CHECK(terms[sp.term_index("right_hand")] == Approx(-dr).margin(1e-9));
-      CHECK(terms[sp.term_index("left_hand")] == Approx(-dl).margin(1e-9));
-      // the paper: open 2 d_target, close 2 (1 - d_target)
-      const double goal = f.open_task ? 2 * dt : 2 * (1 - dt);
-      CHECK(terms[sp.term_index("goal")] == Approx(goal).margin(1e-9));
-      CHECK(end == (dr >= f.max_hand || dl >= f.max_hand));
-      const auto o = observe(*env, 0);
-      for (int k = 0; k < 3; ++k) {
-        CHECK(o[422 + k] == Approx(hr[k]).margin(1e-6));
-        CHECK(o[425 + k] == Approx(hl[k]).margin(1e-6));
-      }
-      // the door block: its fixed pose, at rest; the goal block: the same pose
-      CHECK(o[398] == Approx(0));
-      CHECK(o[400] == Approx(0.7));
-      CHECK(o[404] == Approx(1));
-      for (int k = 405; k < 411; ++k) CHECK(o[k] == Approx(0).margin(1e-9));
-      CHECK(o[413] == Approx(0.7));
-      CHECK(o[421] == Approx(1));
+      evaluate(*env, 0, terms);
+      const double goal = terms[env->spec().term_index("goal")];
+      if (paper)
+        CHECK(goal == Approx(f.open_task ? 2 * dist : 2 * (1 - dist)).margin(1e-6));
+      else
+        CHECK(goal == Approx(f.open_task ? 2 * dy : 1 - 2 * dy).margin(1e-6));
     }
+  }
+}
+
+TEST_CASE("doors: standing still scores more than ending the episode at once",
+          "[tasks][handle][reward][exploit]") {
+  // Two fixed policies over one episode: "still" (zero actions: no base force, joints at
+  // mid-range) and "flee" (both bases pushed away from the door at full force until a hand is
+  // too far from its handle and the episode ends). Under the default (the original's constant
+  // of 2, 6 in door_close_outward) every step of standing still pays and staying is worth more
+  // than ending; under the paper's 0.2 ending the episode at once pays more than staying, the
+  // exploit PPO found (bench/results/gpu-references-h100/README.md).
+  struct Outcome {
+    double ret = 0, min_step = 1e9;
+    int steps = 0;
+    bool terminated = false;
+  };
+  auto run = [](const std::string& id, const std::string& file, bool flee) {
+    auto env = make_env(id, 1, 1, 1, file);
+    env->reset();
+    const auto& act = env->spec().act;
+    std::vector<float> a(act.dim(), 0.f);
+    if (flee) {
+      a[act.at("right.base_translation").start] = 1.f;  // +x: away from the door
+      a[act.at("left.base_translation").start] = 1.f;
+    }
+    Outcome out;
+    for (int t = 0; t < env->task().episode_length(); ++t) {
+      env->step(a);
+      out.ret += env->reward[0];
+      out.min_step = std::min(out.min_step, double(env->reward[0]));
+      ++out.steps;
+      REQUIRE(env->fault[0] == 0);
+      if (env->terminated[0] || env->truncated[0]) {
+        out.terminated = env->terminated[0];
+        break;
+      }
+    }
+    return out;
+  };
+  for (const auto& f : kDoors) {
+    TaskTempDir dir;
+    const auto paper_file = edited_yaml(dir, f.id, {{"variant", "paper"}});
+    const Outcome still = run(f.id, "", false), flee = run(f.id, "", true);
+    const Outcome still_p = run(f.id, paper_file, false), flee_p = run(f.id, paper_file, true);
+    INFO(f.id << ": default still " << still.ret << " (" << still.steps << " steps, worst step "
+              << still.min_step << "), flee " << flee.ret << " (" << flee.steps
+              << " steps); paper still " << still_p.ret << ", flee " << flee_p.ret << " ("
+              << flee_p.steps << " steps)");
+    // standing still lasts the whole episode; fleeing ends it early
+    CHECK_FALSE(still.terminated);
+    CHECK(still.steps == 250);
+    CHECK(flee.terminated);
+    CHECK(flee.steps < 100);
+    // the default: every step of standing still pays, so staying beats ending at any step
+    CHECK(still.min_step > 0);
+    CHECK(still.ret > flee.ret);
+    // the paper's formula: ending at once pays more than staying (why it is not the default)
+    CHECK(still_p.ret < 0);
+    CHECK(flee_p.ret > still_p.ret);
   }
 }
 
@@ -348,50 +549,57 @@ TEST_CASE("lift_underarm oracle: the pot at the goal fires success", "[tasks][ha
 TEST_CASE("door oracles: the leaves driven to their goal angle fire success",
           "[tasks][handle][oracle]") {
   for (const auto& f : kDoors) {
-    INFO(f.id);
-    auto env = make_env(f.id, 1, 1, 1);
-    env->reset();
-    const auto& sp = env->spec();
-    const double goal_q = f.open_task ? M_PI / 2 : 0, away_q = M_PI / 2 - goal_q;
-    std::vector<double> terms;
-    // the start state: no success
-    evaluate(*env, 0, terms);
-    CHECK_FALSE(env->slot(0).task->success);
-    // the opposite angle: no success
-    set_hinges(*env, 0, away_q, away_q);
-    evaluate(*env, 0, terms);
-    CHECK_FALSE(env->slot(0).task->success);
-    // one leaf alone: not enough to open (the gap stays under 0.5 m); enough to close, as in
-    // the original (the closed leaf's handle and the open one's are 0.41-0.49 m apart in y)
-    set_hinges(*env, 0, goal_q, away_q);
-    evaluate(*env, 0, terms);
-    CHECK(env->slot(0).task->success == !f.open_task);
-    env->slot(0).task->success = false;
-    // the goal term over the joint range peaks at the goal angle (closing: within 0.01 of its
-    // peak, which an outward leaf reaches at about 0.1 rad, where the handles, standing 4 cm in
-    // front of the hinges, come closest)
-    double best = -1e9, at_goal = 0;
-    for (int i = 0; i <= 20; ++i) {
-      const double q = M_PI / 2 * i / 20;
-      set_hinges(*env, 0, q, q);
+    for (const bool paper : {false, true}) {
+      INFO(f.id << (paper ? ", reward.variant paper" : ", default with the goal gate off"));
+      // the hands stay at their mounts: the default's gate is opened by setting it to 0
+      TaskTempDir dir;
+      const auto file =
+          edited_yaml(dir, f.id, {{"variant", paper ? "paper" : "original"}, {"goal_gate", "0"}});
+      auto env = make_env(f.id, 1, 1, 1, file);
+      env->reset();
+      const auto& sp = env->spec();
+      const double goal_q = f.open_task ? M_PI / 2 : 0, away_q = M_PI / 2 - goal_q;
+      std::vector<double> terms;
+      // the start state: no success
       evaluate(*env, 0, terms);
-      best = std::max(best, terms[sp.term_index("goal")]);
+      CHECK_FALSE(env->slot(0).task->success);
+      // the opposite angle: no success
+      set_hinges(*env, 0, away_q, away_q);
+      evaluate(*env, 0, terms);
+      CHECK_FALSE(env->slot(0).task->success);
+      // one leaf alone: not enough to open (the gap stays under 0.5 m); enough to close, as in
+      // the original (the closed leaf's handle and the open one's are 0.41-0.49 m apart in y)
+      set_hinges(*env, 0, goal_q, away_q);
+      evaluate(*env, 0, terms);
+      CHECK(env->slot(0).task->success == !f.open_task);
+      env->slot(0).task->success = false;
+      // the goal term over the joint range peaks at the goal angle (closing: within 0.01 of its
+      // peak, which an outward leaf reaches at about 0.1 rad, where the handles, standing 4 cm in
+      // front of the hinges, come closest)
+      double best = -1e9, at_goal = 0;
+      for (int i = 0; i <= 20; ++i) {
+        const double q = M_PI / 2 * i / 20;
+        set_hinges(*env, 0, q, q);
+        evaluate(*env, 0, terms);
+        best = std::max(best, terms[sp.term_index("goal")]);
+      }
+      set_hinges(*env, 0, goal_q, goal_q);
+      evaluate(*env, 0, terms);
+      at_goal = terms[sp.term_index("goal")];
+      if (f.open_task) {
+        CHECK(at_goal == Approx(best).margin(1e-12));
+      } else {
+        // handles 6 cm apart: the paper's 2 (1 - 0.06), the original's 1 - 2 x 0.06
+        CHECK(at_goal == Approx(paper ? 2 * (1 - 0.06) : 1 - 2 * 0.06).margin(1e-9));
+        CHECK(at_goal >= best - 0.01);
+      }
+      CHECK(env->slot(0).task->success);
+      // the handle gap at the goal angle
+      const auto o = observe(*env, 0);
+      const double gap = std::abs(o[423] - o[426]);
+      if (f.open_task) CHECK(gap > 0.5);
+      else CHECK(gap < 0.5);
     }
-    set_hinges(*env, 0, goal_q, goal_q);
-    evaluate(*env, 0, terms);
-    at_goal = terms[sp.term_index("goal")];
-    if (f.open_task) {
-      CHECK(at_goal == Approx(best).margin(1e-12));
-    } else {
-      CHECK(at_goal == Approx(2 * (1 - 0.06)).margin(1e-9));  // handles 6 cm apart
-      CHECK(at_goal >= best - 0.01);
-    }
-    CHECK(env->slot(0).task->success);
-    // the handle gap at the goal angle
-    const auto o = observe(*env, 0);
-    const double gap = std::abs(o[423] - o[426]);
-    if (f.open_task) CHECK(gap > 0.5);
-    else CHECK(gap < 0.5);
   }
 }
 
@@ -560,6 +768,17 @@ TEST_CASE("handle tasks: bad YAML is a ConfigError naming file, key, expected, a
        "sometimes"},
       {"lift_underarm", {{"episode_length", "0"}}, "", "episode_length", "an episode length > 0",
        "0"},
+      // reward variants (tasks/README.md)
+      {"door_close_outward", {{"variant", "both"}}, "", "reward.variant", "'original' or 'paper'",
+       "both"},
+      {"door_open_inward", {{"paper", "{constant: 0.2, colour: red}"}}, "", "reward.paper.colour",
+       "a key of 'reward'", "'colour'"},
+      {"door_close_inward", {{"paper", "{constant: 5000}"}}, "", "reward.paper.constant",
+       "a constant in [-1000, 1000]", "5000"},
+      {"door_open_outward", {{"target", "diagonal"}}, "", "reward.target",
+       "'y_gap' or 'distance'", "diagonal"},
+      {"lift_underarm", {{"original", ""}}, "", "reward", "a map of the other variant's values",
+       "neither"},
   };
   for (const auto& c : cases) {
     INFO(c.task << ": " << c.key);

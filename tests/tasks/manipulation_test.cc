@@ -14,6 +14,7 @@
 #include <catch2/catch.hpp>
 #include <mujoco/mujoco.h>
 
+#include "tasks/bottle_cap/bottle_cap.h"
 #include "tests/tasks/task_fixture.h"
 
 using namespace bidex;
@@ -246,8 +247,12 @@ TEST_CASE("manipulation tasks: observation tails hold what their names say", "[t
 
 // ---- reward terms on crafted states ----------------------------------------------------------
 
-TEST_CASE("bottle_cap terms: 0.2 - d_right - d_left + 30 d_open", "[tasks][manip][reward]") {
-  auto env = make_env("bottle_cap", 1, 3);
+TEST_CASE("bottle_cap terms, reward.variant paper: 0.2 - d_right - d_left + 30 d_open",
+          "[tasks][manip][reward]") {
+  TaskTempDir pdir;
+  auto env =
+      make_env("bottle_cap", 1, 3, 0, edited_yaml(pdir, "bottle_cap", {{"variant", "paper"}}));
+  CHECK(dynamic_cast<const tasks::BottleCap&>(env->task()).params().reward_variant == "paper");
   const int slide = joint_qpos(*env, "bottle_cap_slide");
   env->batch().data(0)->qpos[slide] = 0.02;  // cap 2 cm off its seat
   sync(*env, 0);
@@ -288,15 +293,94 @@ TEST_CASE("bottle_cap terms: 0.2 - d_right - d_left + 30 d_open", "[tasks][manip
   CHECK(dist(pl, xpos(*env, 0, "bottle")) >= 0.2);
   CHECK(evaluate(*env, 0, t));
 
-  // the original's gate: the opening pays only while the right fingertips' sum is <= 0.3 (at
-  // the mounts it is 0.71)
-  auto env3 = make_env("bottle_cap", 1, 3, 0,
-                       edited_yaml(dir, "bottle_cap", {{"goal_gate", "0.3"}}, "gate.yaml"));
-  env3->batch().data(0)->qpos[joint_qpos(*env3, "bottle_cap_slide")] = 0.02;
-  sync(*env3, 0);
-  evaluate(*env3, 0, t);
-  CHECK(t[term(*env3, "cap_open")] == 0);
-  CHECK(-t[term(*env3, "right_hand")] > 0.3);
+}
+
+TEST_CASE("bottle_cap terms, default (the original's): 2 - d_right - d_left + 30 d_open while "
+          "d_right <= 0.3", "[tasks][manip][reward]") {
+  auto env = make_env("bottle_cap", 1, 3);
+  CHECK(dynamic_cast<const tasks::BottleCap&>(env->task()).params().reward_variant == "original");
+  const int slide = joint_qpos(*env, "bottle_cap_slide");
+  env->batch().data(0)->qpos[slide] = 0.02;  // cap 2 cm off its seat
+  sync(*env, 0);
+  std::vector<double> t;
+  evaluate(*env, 0, t);
+  const Vec c = local_point(*env, 0, "bottle", {0, 0, 0.15});
+  const double* b = xpos(*env, 0, "bottle");
+  const Vec palm_l = local_point(*env, 0, "lh_palm", {0, -0.02, 0.08});
+  const double sr = tip_sum(*env, 0, "rh_", c.data());
+  CHECK(t[term(*env, "offset")] == 2);
+  CHECK(t[term(*env, "right_hand")] == Approx(-sr).epsilon(1e-9));
+  CHECK(t[term(*env, "left_hand")] == Approx(-dist(palm_l, b)).epsilon(1e-9));
+  // the gate: the opening pays only while the right fingertips' sum is <= 0.3 (at the mounts
+  // it is 0.71)
+  CHECK(sr > 0.3);
+  CHECK(t[term(*env, "cap_open")] == 0);
+  // the right hand's fingertips brought to the cap point (its base shifted by the difference
+  // of the point and the tips' centroid): the gate opens, 30 x 0.02
+  mjData* d = env->batch().data(0);
+  Vec centroid{};
+  for (const char* tip : {"ffdistal", "mfdistal", "rfdistal", "lfdistal", "thdistal"}) {
+    const Vec p = local_point(*env, 0, std::string("rh_") + tip, {0, 0, 0.02});
+    for (int k = 0; k < 3; ++k) centroid[k] += p[k] / 5;
+  }
+  const auto& rh = env->model().hands()[0];
+  for (int k = 0; k < 3; ++k) d->qpos[rh.base_qpos_adr + k] += c[k] - centroid[k];
+  sync(*env, 0);
+  evaluate(*env, 0, t);
+  const double sr_at = tip_sum(*env, 0, "rh_", c.data());
+  INFO("right fingertip sum at the cap point " << sr_at);
+  REQUIRE(sr_at <= 0.3);
+  CHECK(t[term(*env, "right_hand")] == Approx(-sr_at).epsilon(1e-9));
+  CHECK(t[term(*env, "cap_open")] == Approx(30 * 0.02).epsilon(1e-6));
+}
+
+TEST_CASE("bottle_cap: staying scores more than ending the episode at once",
+          "[tasks][manip][reward][exploit]") {
+  // zero actions ("still": the episode still ends after 42 steps, the bottle slipping from the
+  // left hand) against the quickest end: of the twelve full-force pushes of one base along one
+  // axis, the one that ends the episode soonest ("flee"). The default (the original's 2 a step)
+  // pays every step of staying; the paper's 0.2 makes every step cost, so ending at once pays
+  // more: why it is not the default.
+  auto run = [](const std::string& file, int push) {  // push: -1 none, else 0-11
+    auto env = make_env("bottle_cap", 1, 3, 1, file);
+    env->reset();
+    const auto& act = env->spec().act;
+    std::vector<float> a(act.dim(), 0.f);
+    if (push >= 0) {
+      const char* base = push < 6 ? "right.base_translation" : "left.base_translation";
+      a[act.at(base).start + (push % 6) / 2] = push % 2 ? -1.f : 1.f;
+    }
+    double ret = 0, worst = 1e9;
+    int steps = 0;
+    for (; steps < env->task().episode_length(); ++steps) {
+      env->step(a);
+      ret += env->reward[0];
+      worst = std::min(worst, double(env->reward[0]));
+      REQUIRE(env->fault[0] == 0);
+      if (env->terminated[0] || env->truncated[0]) {
+        ++steps;
+        break;
+      }
+    }
+    return std::array<double, 3>{ret, double(steps), worst};
+  };
+  TaskTempDir dir;
+  const auto paper = edited_yaml(dir, "bottle_cap", {{"variant", "paper"}});
+  int quickest = 0;
+  double fewest = 1e9;
+  for (int push = 0; push < 12; ++push) {
+    const double steps = run("", push)[1];
+    if (steps < fewest) fewest = steps, quickest = push;
+  }
+  const auto still = run("", -1), flee = run("", quickest);
+  const auto still_p = run(paper, -1), flee_p = run(paper, quickest);
+  INFO("push " << quickest << "; default: still " << still[0] << " (" << still[1]
+                << " steps, worst step " << still[2] << "), flee " << flee[0] << " ("
+                << flee[1] << " steps); paper: still " << still_p[0] << ", flee " << flee_p[0]);
+  CHECK(flee[1] < still[1]);
+  CHECK(still[2] > 0);  // every step of staying pays
+  CHECK(still[0] > flee[0]);
+  CHECK(still_p[0] < flee_p[0]);
 }
 
 TEST_CASE("push_block terms: 2 - d_left - d_right + 5 (0.8 - d_target), each block to its own goal",
@@ -415,7 +499,9 @@ TEST_CASE("re_orientation terms: -10 (d1 + d2) + 1/(theta_i + 0.1) - 0.0002 sum(
 // ---- oracles ---------------------------------------------------------------------------------
 
 TEST_CASE("oracle: bottle_cap succeeds with the cap pulled off, not with it on", "[tasks][manip][oracle]") {
-  auto env = make_env("bottle_cap", 1, 3);
+  // the hands stay at their mounts: the default's gate on the opening term is opened
+  TaskTempDir dir;
+  auto env = make_env("bottle_cap", 1, 3, 0, edited_yaml(dir, "bottle_cap", {{"goal_gate", "0"}}));
   const int slide = joint_qpos(*env, "bottle_cap_slide");
   std::vector<double> t;
   sync(*env, 0);
@@ -699,6 +785,10 @@ TEST_CASE("manipulation tasks: bad YAML is a ConfigError naming file, key, expec
        "bottle.cap_travel", "a number", "far"},
       {"bottle_cap", [](std::string t) { return set_value(t, "cap_travel", "-0.01"); },
        "bottle.cap_travel", "a travel in [0.001, 0.5] m", "-0.01"},
+      {"bottle_cap", [](std::string t) { return set_value(t, "variant", "both"); },
+       "reward.variant", "'original' or 'paper'", "both"},
+      {"bottle_cap", [](std::string t) { return set_value(t, "paper", "{offset: 0.2, gate: 0}"); },
+       "reward.paper.gate", "a key of 'reward'", "'gate'"},
       {"push_block", [](std::string t) { return remove_key(t, "goal_offset"); }, "reward.goal_offset",
        "a value for the required key", "none"},
       {"push_block", [](std::string t) { return set_value(t, "density", "-500"); }, "blocks.density",

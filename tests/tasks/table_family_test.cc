@@ -139,8 +139,9 @@ GoalCheck expected_goal(tasks::TaskEnv& env, const std::string& id, int s, doubl
     return {"separation", sr < 0.75 && sl < 0.75 ? 5 * dist(r, l) - 0.8 : 0.0};
   }
   if (id == "switch") {
+    // the default variant: the original's zero point, both switches off (README)
     const double dd = press_distance(env, d, "switch1") + press_distance(env, d, "switch2");
-    return {"press", 50 * (1.4 - dd)};
+    return {"press", 50 * (0.045 - dd)};
   }
   const auto spout = frame_point(d, body_id(env, "kettle"), {-0.2, 0, 0.13});
   auto [r, l] = points(env, id, d);
@@ -203,7 +204,7 @@ double best_goal(const std::string& id) {
   if (id == "swing_cup") return 5 / 0.1 - 1;
   if (id == "scissors") return 5 * 0.59;
   if (id == "pen") return 5 * (0.18 + 0.492) - 0.8;
-  if (id == "switch") return 50 * 1.4;
+  if (id == "switch") return 50 * 0.045;
   return 2 * 0.5;
 }
 
@@ -367,6 +368,35 @@ TEST_CASE("oracle: each table task's goal state fires success and the goal term'
   }
 }
 
+TEST_CASE("switch: the original's zero point by default, the paper's 1.4 as a variant",
+          "[tasks][table][reward]") {
+  // press = 50 (press_offset - d), d the summed distance of the press points to their pressed
+  // positions: 0.044975 m with both switches off, 0 with both on (README)
+  TaskTempDir dir;
+  const auto paper_file = edited_yaml(dir, "switch", {{"variant", "paper"}});
+  for (const bool paper : {false, true}) {
+    INFO((paper ? "reward.variant paper" : "default (original)"));
+    auto env = make_env("switch", 2, 1, 1, paper ? paper_file : std::string());
+    const auto& tp = dynamic_cast<const tasks::TableTask&>(env->task()).params();
+    CHECK(tp.reward_variant == (paper ? "paper" : "original"));
+    const double offset = paper ? 1.4 : 0.045;
+    object_state(*env, "switch", 0, false);
+    object_state(*env, "switch", 1, true);
+    std::vector<double> terms;
+    evaluate(*env, 0, terms);
+    const double off = term(*env, terms, "press");
+    CHECK(off == Approx(50 * (offset - 0.044975)).margin(1e-4));
+    CHECK(term(*env, terms, "offset") == 2);
+    evaluate(*env, 1, terms);
+    const double on = term(*env, terms, "press");
+    CHECK(on == Approx(50 * offset).margin(1e-9));
+    // the same signal (2.25 from off to on); the default's zero point leaves no constant of
+    // 67.75 a step (the paper's) for the return to carry
+    CHECK(on - off == Approx(50 * 0.044975).margin(1e-4));
+    if (!paper) CHECK(std::abs(off) < 0.01);
+  }
+}
+
 TEST_CASE("table family success thresholds sit where the README says", "[tasks][table][oracle]") {
   std::vector<double> terms;
   {  // scissors: q > -0.3
@@ -399,7 +429,7 @@ TEST_CASE("table family success thresholds sit where the README says", "[tasks][
     sync(*env, 0);
     evaluate(*env, 0, terms);
     CHECK_FALSE(env->slot_state(0).success);
-    CHECK(term(*env, terms, "press") == Approx(50 * (1.4 - 0.022483)).margin(0.001));
+    CHECK(term(*env, terms, "press") == Approx(50 * (0.045 - 0.022483)).margin(0.001));
   }
   {  // swing_cup: theta < 0.785
     auto env = make_env("swing_cup", 2);
@@ -648,6 +678,13 @@ TEST_CASE("bad table family YAML files are ConfigErrors naming file, key, expect
        "table.size", "sizes > 0", "0.3, 0, 0.6"},
       {"pen", [](std::string t) { return set_value(t, "max_reach", "yes"); },
        "termination.max_reach", "a number", "yes"},
+      // reward variants (tasks/README.md)
+      {"switch", [](std::string t) { return set_value(t, "variant", "code"); }, "reward.variant",
+       "'original' or 'paper'", "code"},
+      {"switch", [](std::string t) { return set_value(t, "paper", "{press_offset: -2000}"); },
+       "reward.paper.press_offset", "an offset in [-1000, 1000]", "-2000"},
+      {"switch", [](std::string t) { return set_value(t, "paper", "{gate: 0.7}"); },
+       "reward.paper.gate", "a key of 'reward'", "'gate'"},
   };
   for (const auto& c : cases) {
     INFO("task " << c.task << ", key " << c.key);

@@ -3,7 +3,11 @@
 #include "tasks/warp_env.h"
 
 #include <cmath>
+#include <fstream>
 #include <limits>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include <catch2/catch.hpp>
 
@@ -117,6 +121,67 @@ TEST_CASE("WarpTaskEnv steps, rewards and finishes episodes like TaskEnv", "[war
   CHECK(sg.length_sum == Approx(sc.length_sum).margin(3));
   // taken: the next take starts from zero
   CHECK(gpu.take_stats().episodes == 0);
+}
+
+TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskEnv does",
+          "[warp]") {
+  // the same stage bodies with float rows. The two backends' physics differ by a little
+  // (hand-distance terms by up to about 0.01 a step here), so each backend is checked against
+  // itself: the reward does not act on the physics, so two variants of a task under the same
+  // actions see the same states, and their rewards differ by what the variants' terms say,
+  // worked out here from the observed handle points. Doors: the default with its gate opened
+  // (goal_gate 0) pays 6 (door_close_outward; 2 for door_open_inward) + the goal on the
+  // handles' y-distance, the paper 0.2 + the goal on their distance. Switch: the paper's
+  // 50 (1.4 - d) against the default's 50 (0.045 - d), 67.75 more a step.
+  test::TempDir dir;
+  auto yaml = [&](const std::string& id, const std::string& reward) {
+    const std::string file = dir.file(id + "-" + std::to_string(dir.list().size()) + ".yaml");
+    std::ofstream(file) << "extends: " << BIDEX_SOURCE_DIR << "/tasks/" << id << "/" << id
+                        << ".yaml\nreward: " << reward << "\n";
+    return file;
+  };
+  struct Case {
+    std::string id, a, b;  // task; YAMLs of the two variants
+    bool open;             // door goal: open (2 gap) or close (1 - 2 gap, 2 (1 - gap))
+    double constant;       // the default's constant (doors)
+  };
+  const std::vector<Case> cases = {
+      {"door_close_outward", yaml("door_close_outward", "{goal_gate: 0}"),
+       yaml("door_close_outward", "{variant: paper}"), false, 6},
+      {"door_open_inward", yaml("door_open_inward", "{goal_gate: 0}"),
+       yaml("door_open_inward", "{variant: paper}"), true, 2},
+      {"switch", "", yaml("switch", "{variant: paper}"), false, 0}};
+  // the expected reward difference a - b of world w from its observation (doors)
+  auto door_diff = [](const Case& c, const float* o) {
+    const double dx = o[422] - o[425], dy = o[423] - o[426], dz = o[424] - o[427];
+    const double gap_y = std::abs(dy), gap = std::sqrt(dx * dx + dy * dy + dz * dz);
+    const double goal_a = c.open ? 2 * gap_y : 1 - 2 * gap_y;
+    const double goal_b = c.open ? 2 * gap : 2 * (1 - gap);
+    return (c.constant - 0.2) + goal_a - goal_b;
+  };
+  for (const auto& c : cases) {
+    INFO(c.id);
+    TaskEnv cpu_a(make_task(c.id, c.a), cpu_env(2, 7)), cpu_b(make_task(c.id, c.b), cpu_env(2, 7));
+    WarpTaskEnv gpu_a(make_task(c.id, c.a), cpu_warp(2, 7));
+    WarpTaskEnv gpu_b(make_task(c.id, c.b), cpu_warp(2, 7));
+    const int od = cpu_a.obs_dim();
+    std::vector<float> zero(2 * cpu_a.act_dim(), 0.0f);
+    for (int t = 0; t < 4; ++t) {
+      for (auto* e : {&cpu_a, &cpu_b}) e->step(zero);
+      for (auto* e : {&gpu_a, &gpu_b}) e->step(zero);
+      const auto ra = gpu_a.download<float>("reward"), rb = gpu_b.download<float>("reward");
+      const auto og = gpu_a.download<float>("obs");
+      for (int w = 0; w < 2; ++w) {
+        INFO("step " << t << ", world " << w << ": cpu " << cpu_a.reward[w] << " / "
+                     << cpu_b.reward[w] << ", gpu " << ra[w] << " / " << rb[w]);
+        const double want_cpu = c.id == "switch" ? -67.75 : door_diff(c, &cpu_a.obs[w * od]);
+        const double want_gpu = c.id == "switch" ? -67.75 : door_diff(c, &og[w * od]);
+        CHECK(double(cpu_a.reward[w]) - cpu_b.reward[w] == Approx(want_cpu).margin(1e-4));
+        CHECK(double(ra[w]) - rb[w] == Approx(want_gpu).margin(1e-4));
+        CHECK(std::abs(ra[w] - cpu_a.reward[w]) < 0.05);  // the physics' difference only
+      }
+    }
+  }
 }
 
 TEST_CASE("WarpTaskEnv ends a faulted world's episode, resets it alone, keeps stepping",
