@@ -206,6 +206,10 @@ void add_bench_command(CLI::App& app) {
   warp->add_option("--determinism-steps", wc->determinism_steps,
                    "Steps of two fresh backends compared for bitwise equality, per task (0: skip)")
       ->check(CLI::NonNegativeNumber)->capture_default_str();
+  warp->add_option("--min-checked", wc->min_checked,
+                   "Fault-checked slot-steps per task at least, however fast the GPU steps: "
+                   "untimed steps after the timed rounds make up the rest")
+      ->check(CLI::NonNegativeNumber)->capture_default_str();
   warp->add_option("--phases", wc->phase_steps,
                    "Control steps to reach a state on which raw stepping's parts are each timed: "
                    "the shares of a substep in collision, constraint rows and the solver (0: skip)")

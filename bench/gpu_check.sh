@@ -17,7 +17,7 @@ bidex=${BIDEX:-build/apps/bidex}
 mkdir -p "$out"
 "$bidex" bench agree --task "$tasks" --episodes 1000 --slots 1024 --out "$out/agree.json" || exit 1
 "$bidex" bench warp --task "$tasks" --worlds 16384 --seconds 3 --rounds 2 \
-  --out "$out/warp.json" || exit 1
+  --min-checked 1000000 --out "$out/warp.json" || exit 1
 python3 - "$out/agree.json" "$out/warp.json" <<'PY'
 import json, sys
 agree, warp = (json.load(open(p)) for p in sys.argv[1:3])

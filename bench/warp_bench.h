@@ -24,6 +24,8 @@ struct WarpBenchConfig {
   uint64_t seed = 1;
   bool stages = true;                      // also the whole task step where its stages run
   int determinism_steps = 50;              // per task: two fresh backends compared (0: skip)
+  int64_t min_checked = 0;                 // fault-checked slot-steps per measurement at least:
+                                           // untimed steps after the timed rounds make up the rest
   int phase_steps = 0;                     // > 0: after that many control steps, each part of
                                            // a substep timed (collision, solver, ...)
   std::string physics_file;                // empty: default

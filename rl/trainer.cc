@@ -537,7 +537,14 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   res.last_success = shown_success;
   res.checkpoint = s.last_checkpoint;
   res.sim_device = s.sim_device;
-  if (auto* gpu = dynamic_cast<taskpack::WarpPack*>(s.env.get())) res.room_advice = gpu->room_advice();
+  // the GPU's room per entry: the most constraint rows a world needed against gpu.njmax
+  nlohmann::json rows = nlohmann::json::array();
+  if (auto* gpu = dynamic_cast<taskpack::WarpPack*>(s.env.get())) {
+    res.room_advice = gpu->room_advice();
+    const auto r = gpu->rows();
+    for (int g = 0; g < gpu->ngroups(); ++g)
+      rows.push_back({{"label", gpu->label(g)}, {"rows_needed", r[g].needed}, {"njmax", r[g].room}});
+  }
   nlohmann::json scores = nlohmann::json::array();
   auto or_null = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
   for (auto& e : res.scores)
@@ -547,6 +554,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                             {"algo", s.cfg.algo},
                             {"sim_device", s.sim_device},
                             {"room_advice", res.room_advice},
+                            {"gpu_rows", rows},
                             {"updates", s.update},
                             {"steps", s.steps},
                             {"wall_s", s.wall},

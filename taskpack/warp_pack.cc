@@ -168,6 +168,12 @@ std::string WarpPack::room_advice() const {
   return out;
 }
 
+std::vector<WarpPack::Rows> WarpPack::rows() const {
+  std::vector<Rows> out;
+  for (const auto& e : envs_) out.push_back({e->backend().max_rows(), e->backend().options().njmax});
+  return out;
+}
+
 void WarpPack::set_profile(bool on) {
   for (auto& e : envs_) e->set_profile(on);
 }

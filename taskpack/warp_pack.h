@@ -64,6 +64,12 @@ class WarpPack : public Pack {
   // Faults and overflows over all entries' worlds since construction, and what to raise.
   int64_t total_faults() const;
   std::string room_advice() const;
+  // Per entry, the most constraint rows any of its worlds has needed since construction, and
+  // its room (the scene's gpu.njmax): how close training comes to an overflow.
+  struct Rows {
+    int needed = 0, room = 0;
+  };
+  std::vector<Rows> rows() const;
   // Host seconds spent queueing the entries' steps (kernels and graphs) since construction: a
   // pack whose launches take as long as its step is bound by the host, not the GPU.
   double launch_seconds() const { return launch_seconds_; }

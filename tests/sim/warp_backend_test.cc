@@ -232,19 +232,4 @@ TEST_CASE("WarpBackend says what is missing when asked for a GPU it cannot have"
   CHECK_THROWS_WITH(WarpBackend(model, 0, o), Catch::Contains("nworld must be >= 1, got 0"));
 }
 
-TEST_CASE("WarpBackend times the parts of a substep for bench warp --phases", "[warp]") {
-  const SimModel& model = test::two_hand_model();
-  WarpBackend w(model, 2, cpu_options());
-  const auto ms = w.phase_profile(1);
-  for (const char* part : {"collision", "make_constraint", "forward_before_solve", "forward", "step"}) {
-    INFO(part);
-    REQUIRE(ms.count(part) == 1);
-    CHECK(ms.at(part) > 0);
-  }
-  CHECK(ms.size() == 5);
-  // a substep does all of collision detection and more
-  CHECK(ms.at("step") > ms.at("collision"));
-  CHECK(w.total_faults() == 0);
-}
-
 }  // namespace bidex::sim

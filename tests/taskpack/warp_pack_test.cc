@@ -107,6 +107,10 @@ TEST_CASE("a GPU pack writes the CPU pack's padded, one-hot, scaled rows", "[war
   // each entry read its own columns of the padded action rows: nothing faulted
   CHECK(gpu.total_faults() == 0);
   CHECK(gpu.room_advice().empty());
+  for (const auto& rows : gpu.rows()) {
+    CHECK(rows.needed > 0);
+    CHECK(rows.needed <= rows.room);
+  }
 }
 
 TEST_CASE("the collector reads a GPU pack's rows in place, with the time limit's final rows",
@@ -170,6 +174,12 @@ TEST_CASE("training runs on the GPU path's code, records its device and resumes 
   CHECK(r.updates == 2);
   CHECK(r.sim_device == "warp-cpu");
   CHECK(r.room_advice.empty());
+  // the summary keeps how close the worlds came to their room
+  const auto summary = nlohmann::json::parse(read_file(dir + "/summary.json"));
+  REQUIRE(summary["gpu_rows"].size() == 1);
+  CHECK(summary["gpu_rows"][0]["label"] == "catch_underarm_raise");
+  CHECK(summary["gpu_rows"][0]["rows_needed"].get<int>() > 0);
+  CHECK(summary["gpu_rows"][0]["rows_needed"].get<int>() <= summary["gpu_rows"][0]["njmax"].get<int>());
   const auto run = nlohmann::json::parse(read_file(dir + "/run.json"));
   CHECK(run["sessions"][0]["sim_device"] == "warp-cpu");
   const auto prof = nlohmann::json::parse(read_file(dir + "/profile.json"));
