@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <fstream>
 
 #include <yaml-cpp/yaml.h>
 
@@ -175,6 +176,11 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
                                   e.child("task_config").repr());
     // absent from run configs written before the key existed: the default physics
     c.physics = e.has("physics") ? e.req<std::string>("physics") : "";
+    // a relative path that is not there from here is read from bidex's data folder, so that a
+    // run started in the repository resumes and evaluates from anywhere
+    if (!c.physics.empty() && c.physics[0] != '/' && !std::ifstream(c.physics) &&
+        std::ifstream(sim::data_dir() + "/" + c.physics))
+      c.physics = sim::data_dir() + "/" + c.physics;
     if (!c.physics.empty()) {
       try {
         sim::load_physics(c.physics);

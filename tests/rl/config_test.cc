@@ -2,6 +2,8 @@
 // kind of bad input, on the real configs/train/ppo.yaml.
 #include "tests/rl/rl_fixture.h"
 
+#include <fstream>
+
 #include "core/error.h"
 #include "sim/physics.h"
 
@@ -104,6 +106,12 @@ TEST_CASE("env.physics names the step a run trains and evaluates on", "[rl][conf
   CHECK(resolve("hand_over").physics.empty());  // configs/sim/physics.yaml
   const std::string file = sim::default_physics_path();
   CHECK(resolve("hand_over", {"env.physics=" + file}).physics == file);
+  // a path relative to the repository is found from any working folder
+  const std::string rel = "bench/results/physics-step/physics-discrete6.yaml";
+  const std::string got = resolve("hand_over", {"env.physics=" + rel}).physics;
+  CHECK(std::ifstream(got).good());
+  CHECK(got.size() >= rel.size());
+  CHECK(got.compare(got.size() - rel.size(), rel.size(), rel) == 0);
   // a run config written before the key existed trains on the default physics
   std::string yaml = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
   const auto at = yaml.find("physics:");
