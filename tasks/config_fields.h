@@ -47,4 +47,15 @@ struct RewardVariants {
 };
 RewardVariants read_reward_variants(const YamlView& reward);
 
+// Reads a task's parameters under both variants with `read(view, params)` (so that either's
+// mistakes are errors) and keeps the chosen one in `p`, naming it in `p.reward_variant`.
+template <class Params, class Read>
+void read_chosen_variant(const RewardVariants& rv, Params& p, Read&& read) {
+  Params other = p;
+  read(rv.base, p);
+  read(rv.other, other);
+  if (rv.use_other) p = other;
+  p.reward_variant = rv.variant;
+}
+
 }  // namespace bidex::tasks

@@ -92,7 +92,6 @@ HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
     p.pot.goal = read_vec3(d.child("goal"));
   }
   {
-    // both variants are read (so that either's mistakes are errors); the chosen one is kept
     const auto rv = read_reward_variants(root.child("reward"));
     auto read = [&](const YamlView& r, HandleParams& q) {
       std::vector<std::string> keys = {"hand_point", "constant", "goal_weight", "goal_offset",
@@ -107,11 +106,7 @@ HandleParams load_handle_params(const std::string& file, const TaskSpec& spec) {
       q.goal_offset = read_number(r, "goal_offset", -1e3, 1e3, "an offset in [-1000, 1000] m");
       q.goal_gate = read_number(r, "goal_gate", 0, 100, "a distance in [0, 100] m (0: off)");
     };
-    HandleParams other = p;
-    read(rv.base, p);
-    read(rv.other, other);
-    if (rv.use_other) p = other;
-    p.reward_variant = rv.variant;
+    read_chosen_variant(rv, p, read);
   }
   {
     auto s = root.child("success");

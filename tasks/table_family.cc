@@ -162,13 +162,10 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
   }
   read_base_scales(root, &p.force_scale, &p.torque_scale);
   {
-    // both variants are read (so that either's mistakes are errors); the chosen one is kept
     const auto rv = read_reward_variants(root.child("reward"));
-    TableParams other = p;
-    read_numbers(rv.base, reward_keys(kind), p, rv.extra);
-    read_numbers(rv.other, reward_keys(kind), other, rv.extra);
-    if (rv.use_other) p = other;
-    p.reward_variant = rv.variant;
+    read_chosen_variant(rv, p, [&](const YamlView& r, TableParams& q) {
+      read_numbers(r, reward_keys(kind), q, rv.extra);
+    });
   }
   if (kind != TableKind::kSwitch) {
     auto t = root.child("termination");

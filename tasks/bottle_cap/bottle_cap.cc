@@ -38,7 +38,6 @@ BottleCapParams load(const std::string& file) {
     p.cap_point = read_number(b, "cap_point", -1, 1, "an offset in [-1, 1] m");
   }
   {
-    // both variants are read (so that either's mistakes are errors); the chosen one is kept
     const auto rv = read_reward_variants(root.child("reward"));
     auto read = [&](const YamlView& r, BottleCapParams& q) {
       std::vector<std::string> keys = {"offset", "open_scale", "goal_gate", "success_opening"};
@@ -50,11 +49,7 @@ BottleCapParams load(const std::string& file) {
           read_number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
       q.success_opening = read_number(r, "success_opening", 0, 1, "a distance in [0, 1] m");
     };
-    BottleCapParams other = p;
-    read(rv.base, p);
-    read(rv.other, other);
-    if (rv.use_other) p = other;
-    p.reward_variant = rv.variant;
+    read_chosen_variant(rv, p, read);
   }
   {
     auto t = root.child("termination");
