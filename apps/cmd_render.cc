@@ -127,11 +127,7 @@ void add_render_command(CLI::App& app) {
           throw ConfigError("--entry", "entry", "an entry of " + c.suite + " (" + labels + ")",
                             "'" + o->entry + "'");
       }
-      taskpack::PackOptions po;
-      po.threads = 1;
-      po.seed = o->seed;
-      po.physics_file = c.physics;  // the run's own step
-      taskpack::TaskPack pack(ps, po);
+      taskpack::TaskPack pack(ps, rl::run_pack_options(c, o->seed, 1));
       policy.check_fits(pack, c.target() + " now");
       pack.reset();
       tasks::TaskEnv& env = pack.group(g);

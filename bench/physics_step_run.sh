@@ -28,9 +28,13 @@ shift 2
 dir=bench/results/physics-step
 build=${BIDEX_GPU_BUILD:-build-gpu}
 mkdir -p "$out"
+# build_from PARTS: the bundle's parts joined and bidex built, without the renderer
+build_from() {
+  BIDEX_CMAKE_ARGS="${BIDEX_CMAKE_ARGS:--DBIDEX_RENDER_GL=NONE}" bench/gpu_learn_run.sh build "$1"
+}
 case "$stage" in
 build)
-  BIDEX_CMAKE_ARGS="${BIDEX_CMAKE_ARGS:--DBIDEX_RENDER_GL=NONE}" bench/gpu_learn_run.sh build "${1:?PARTS}"
+  build_from "${1:?PARTS}"
   ;;
 phases)
   tasks=${1:?TASKS}; shift
@@ -52,8 +56,7 @@ PY
   done
   ;;
 speed)
-  parts=${1:?PARTS}
-  BIDEX_CMAKE_ARGS="${BIDEX_CMAKE_ARGS:--DBIDEX_RENDER_GL=NONE}" bench/gpu_learn_run.sh build "$parts" || exit 1
+  build_from "${1:?PARTS}" || exit 1
   cands=()
   for f in "$dir"/physics-*.yaml; do n=$(basename "$f" .yaml); cands+=("${n#physics-}=$f"); done
   bench/gpu_learn_run.sh step "$out" catch_underarm,hand_over 16384 "${cands[@]}"

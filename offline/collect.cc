@@ -125,18 +125,12 @@ DatasetInfo collect(const CollectOptions& o) {
   std::unique_ptr<taskpack::Pack> pack;
   torch::Device dev(torch::kCPU);
   if (where == "cuda") {
-    taskpack::WarpPackOptions wo;
-    wo.seed = o.seed;
-    wo.device = "cuda";
-    wo.physics_file = cfg.physics;
-    pack = std::make_unique<taskpack::WarpPack>(spec, wo);
+    pack = std::make_unique<taskpack::WarpPack>(spec,
+                                                rl::run_warp_pack_options(cfg, o.seed, "cuda"));
     dev = torch::Device(torch::kCUDA, 0);
   } else {
-    taskpack::PackOptions po;
-    po.threads = cfg.threads;
-    po.seed = o.seed;
-    po.physics_file = cfg.physics;
-    pack = std::make_unique<taskpack::TaskPack>(spec, po);
+    pack = std::make_unique<taskpack::TaskPack>(spec,
+                                                rl::run_pack_options(cfg, o.seed, cfg.threads));
   }
   if (policy) policy->check_fits(*pack, "task " + cfg.task);
 

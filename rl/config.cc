@@ -2,7 +2,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 
 #include <yaml-cpp/yaml.h>
 
@@ -170,17 +169,14 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     e.allow_keys({"slots", "threads", "task_config", "physics"});
     c.slots = read_int(e, "slots", 1);
     c.threads = read_int(e, "threads", 0);
-    c.task_config = e.req<std::string>("task_config");
+    c.task_config = sim::resolve_data_path(e.req<std::string>("task_config"));
     if (!c.suite.empty() && !c.task_config.empty())
       e.child("task_config").fail("\"\" for a suite run (each suite entry names its own task YAML)",
                                   e.child("task_config").repr());
     // absent from run configs written before the key existed: the default physics
     c.physics = e.has("physics") ? e.req<std::string>("physics") : "";
-    // a relative path that is not there from here is read from bidex's data folder, so that a
-    // run started in the repository resumes and evaluates from anywhere
-    if (!c.physics.empty() && c.physics[0] != '/' && !std::ifstream(c.physics) &&
-        std::ifstream(sim::data_dir() + "/" + c.physics))
-      c.physics = sim::data_dir() + "/" + c.physics;
+    // repository-relative paths work from any folder, so a run resumes and evaluates anywhere
+    c.physics = sim::resolve_data_path(c.physics);
     if (!c.physics.empty()) {
       try {
         sim::load_physics(c.physics);

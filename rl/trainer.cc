@@ -200,17 +200,11 @@ struct Session {
     const taskpack::PackSpec spec = run_pack(cfg, cfg.slots);
     sim_device = choose_sim_device(requested_sim_device, spec, &sim_why);
     if (sim_device == "cpu") {
-      taskpack::PackOptions po;
-      po.threads = cfg.threads;
-      po.seed = env_seed;
-      po.physics_file = cfg.physics;
-      env = std::make_unique<taskpack::TaskPack>(spec, po);
+      env = std::make_unique<taskpack::TaskPack>(spec,
+                                                 run_pack_options(cfg, env_seed, cfg.threads));
     } else {
-      taskpack::WarpPackOptions wo;
-      wo.seed = env_seed;
-      wo.device = sim_device == "warp-cpu" ? "cpu" : "cuda";
-      wo.physics_file = cfg.physics;
-      env = std::make_unique<taskpack::WarpPack>(spec, wo);
+      env = std::make_unique<taskpack::WarpPack>(
+          spec, run_warp_pack_options(cfg, env_seed, sim_device == "warp-cpu" ? "cpu" : "cuda"));
       if (sim_device == "warp-cpu") device = torch::Device(torch::kCPU);
     }
     algo = make_algorithm(cfg.algo, cfg, env->obs_dim(), env->act_dim(), env->nslot(), device);
@@ -613,6 +607,23 @@ taskpack::PackSpec eval_pack(const TrainConfig& c, const std::string& split, int
   return ps;
 }
 
+taskpack::PackOptions run_pack_options(const TrainConfig& c, uint64_t seed, int threads) {
+  taskpack::PackOptions o;
+  o.threads = threads;
+  o.seed = seed;
+  o.physics_file = c.physics;
+  return o;
+}
+
+taskpack::WarpPackOptions run_warp_pack_options(const TrainConfig& c, uint64_t seed,
+                                                const std::string& device) {
+  taskpack::WarpPackOptions o;
+  o.seed = seed;
+  o.device = device;
+  o.physics_file = c.physics;
+  return o;
+}
+
 std::string default_run_dir(const TrainConfig& c) {
   std::time_t t = std::time(nullptr);
   char buf[32];
@@ -764,11 +775,7 @@ EvalResult evaluate_zero(const TrainConfig& c, int episodes, uint64_t seed, int 
 
 EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, int threads,
                             const ActorFactory& make_actor, const std::string& split) {
-  taskpack::PackOptions po;
-  po.threads = threads;
-  po.seed = seed;
-  po.physics_file = c.physics;  // the run's own step
-  taskpack::TaskPack env(eval_pack(c, split, episodes, false), po);
+  taskpack::TaskPack env(eval_pack(c, split, episodes, false), run_pack_options(c, seed, threads));
   const Actor actor = make_actor(env);
   env.reset();
   const int n = env.nslot();
@@ -845,11 +852,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
                 "--adapt-steps >= 0 (got " + std::to_string(episodes) + ", " +
                 std::to_string(adapt_episodes) + ", " + std::to_string(adapt_steps) + ")");
   const taskpack::PackSpec ps = eval_pack(c, split, episodes, true);
-  taskpack::PackOptions po;
-  po.threads = threads;
-  po.seed = seed;
-  po.physics_file = c.physics;  // the run's own step
-  taskpack::TaskPack env(ps, po);
+  taskpack::TaskPack env(ps, run_pack_options(c, seed, threads));
   policy.check_fits(env, "the " + split + " split of " + c.suite);
   torch::manual_seed(seed);
   const torch::Device cpu(torch::kCPU);

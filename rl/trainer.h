@@ -21,6 +21,8 @@ namespace bidex::taskpack {
 class Pack;
 class TaskPack;
 struct PackSpec;
+struct PackOptions;
+struct WarpPackOptions;
 }
 
 namespace bidex::rl {
@@ -97,6 +99,13 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
 // with `per_goal`, `per_task` slots per goal of an entry's goal distribution.
 taskpack::PackSpec eval_pack(const TrainConfig& config, const std::string& split, int per_task,
                              bool per_goal);
+
+// The options of every pack that steps a run's worlds (training, evaluation, render, offline
+// collection): the run's own physics (env.physics), `seed`, and on the CPU `threads`, on the
+// GPU backend `device`.
+taskpack::PackOptions run_pack_options(const TrainConfig& config, uint64_t seed, int threads);
+taskpack::WarpPackOptions run_warp_pack_options(const TrainConfig& config, uint64_t seed,
+                                                const std::string& device);
 
 // The default folder of a new run: runs/<task or suite>-<algo>-<YYYYmmdd-HHMMSS>-s<seed>.
 std::string default_run_dir(const TrainConfig& c);

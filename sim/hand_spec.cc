@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <fstream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -115,6 +116,12 @@ const char* side_name(Side s) { return s == Side::kRight ? "right" : "left"; }
 std::string data_dir() {
   if (const char* env = std::getenv("BIDEX_DATA_DIR"); env && *env) return env;
   return BIDEX_SOURCE_DIR;
+}
+
+std::string resolve_data_path(const std::string& path) {
+  if (path.empty() || path[0] == '/' || std::ifstream(path)) return path;
+  const std::string in_data = data_dir() + "/" + path;
+  return std::ifstream(in_data) ? in_data : path;
 }
 
 std::string default_hand_path() { return data_dir() + "/configs/hands/shadow.yaml"; }

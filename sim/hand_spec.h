@@ -114,5 +114,9 @@ std::string default_hand_path();
 
 // The folder holding configs/ (BIDEX_DATA_DIR if set, else the source tree this was built from).
 std::string data_dir();
+// `path` as given where it opens from the working folder (or is absolute or empty); else, where
+// it does, the same path below data_dir(): repository-relative paths in configs work from any
+// folder.
+std::string resolve_data_path(const std::string& path);
 
 }  // namespace bidex::sim

@@ -336,10 +336,11 @@ class Bridge:
              ("forward_before_solve", before_solve),
              ("forward", lambda: mjw.forward(m, d)),
              ("step", lambda: mjw.step(m, d))]
-    reps = max(int(steps), 1) * self.substeps
+    steps = max(int(steps), 1)
+    reps = steps * self.substeps
     out = {}
     with wp.ScopedDevice(self.device), wp.ScopedStream(self._stream):
-      for _ in range(max(int(steps), 1)):
+      for _ in range(steps):
         self.raw_step()
       flags = m.opt.disableflags
       m.opt.disableflags = flags | int(mjw.DisableBit.SENSOR)

@@ -112,6 +112,10 @@ TEST_CASE("env.physics names the step a run trains and evaluates on", "[rl][conf
   CHECK(std::ifstream(got).good());
   CHECK(got.size() >= rel.size());
   CHECK(got.compare(got.size() - rel.size(), rel.size(), rel) == 0);
+  // and so is a repository-relative task YAML
+  CHECK(std::ifstream(resolve("hand_over", {"env.task_config=tasks/hand_over/hand_over.yaml"})
+                          .task_config)
+            .good());
   // a run config written before the key existed trains on the default physics
   std::string yaml = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
   const auto at = yaml.find("physics:");

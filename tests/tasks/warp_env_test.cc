@@ -152,8 +152,10 @@ TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskE
        yaml("door_open_inward", "{variant: paper}"), true, 2},
       {"switch", "", yaml("switch", "{variant: paper}"), false, 0}};
   // the expected reward difference a - b of world w from its observation (doors)
-  auto door_diff = [](const Case& c, const float* o) {
-    const double dx = o[422] - o[425], dy = o[423] - o[426], dz = o[424] - o[427];
+  auto door_diff = [](const Case& c, const TaskEnv& env, const float* o) {
+    const float* r = o + env.spec().obs.at("right_handle.pos").start;
+    const float* l = o + env.spec().obs.at("left_handle.pos").start;
+    const double dx = r[0] - l[0], dy = r[1] - l[1], dz = r[2] - l[2];
     const double gap_y = std::abs(dy), gap = std::sqrt(dx * dx + dy * dy + dz * dz);
     const double goal_a = c.open ? 2 * gap_y : 1 - 2 * gap_y;
     const double goal_b = c.open ? 2 * gap : 2 * (1 - gap);
@@ -174,8 +176,9 @@ TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskE
       for (int w = 0; w < 2; ++w) {
         INFO("step " << t << ", world " << w << ": cpu " << cpu_a.reward[w] << " / "
                      << cpu_b.reward[w] << ", gpu " << ra[w] << " / " << rb[w]);
-        const double want_cpu = c.id == "switch" ? -67.75 : door_diff(c, &cpu_a.obs[w * od]);
-        const double want_gpu = c.id == "switch" ? -67.75 : door_diff(c, &og[w * od]);
+        const bool sw = c.id == "switch";
+        const double want_cpu = sw ? -67.75 : door_diff(c, cpu_a, &cpu_a.obs[w * od]);
+        const double want_gpu = sw ? -67.75 : door_diff(c, cpu_a, &og[w * od]);
         CHECK(double(cpu_a.reward[w]) - cpu_b.reward[w] == Approx(want_cpu).margin(1e-4));
         CHECK(double(ra[w]) - rb[w] == Approx(want_gpu).margin(1e-4));
         CHECK(std::abs(ra[w] - cpu_a.reward[w]) < 0.05);  // the physics' difference only
