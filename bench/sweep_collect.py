@@ -1,0 +1,114 @@
+#!/usr/bin/env python3
+"""Summarises the PPO sweep's runs (bench/sweep_run.sh collect): per run OUTDIR/RUN/time_to_target.json
+and one OUTDIR/sweep.json.
+Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK or TASK/sSEED)"""
+import csv, datetime, json, os, sys
+
+# The original's published PPO finals: the last row of its 10-seed learning curves, about 1e8
+# environment steps (mean over 10 seeds), for the nine tasks it published curves for.
+ORIGINAL_PPO_FINAL = {
+    "hand_over": 30.8, "catch_underarm": 17.8, "catch_over2underarm": 28.4,
+    "catch_abreast": 43.4, "two_catch_underarm": 14.1, "door_open_inward": 467.0,
+    "door_open_outward": 580.0, "door_close_inward": 295.0, "door_close_outward": 1038.0,
+}
+
+
+def load(path):
+    return json.load(open(path)) if os.path.exists(path) else None
+
+
+def num(r, key):
+    v = r.get(key, "")
+    return float(v) if v not in ("", None) else None
+
+
+def mean(v):
+    v = [x for x in v if x is not None]
+    return sum(v) / len(v) if v else None
+
+
+def comparable(r):
+    """The training return without bidex's goal bonus: the original's bonus never fired
+    (hand_over) or does not exist (the other tasks with a published curve)."""
+    ret = num(r, "return")
+    bonus = num(r, "term_goal_bonus") or 0.0
+    return None if ret is None else ret - bonus
+
+
+def window(rows, lo, hi, f):
+    return mean(f(r) for r in rows if lo < float(r["steps"]) <= hi)
+
+
+def summarise(outdir, spec):
+    task, _, seed = spec.partition("/s")
+    name = spec.replace("/", "-")
+    d = os.path.join(outdir, name)
+    rows = [r for r in csv.DictReader(open(f"{d}/metrics.csv")) if r["return"] != ""] \
+        if os.path.exists(f"{d}/metrics.csv") else []
+    summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
+    end = float(rows[-1]["steps"]) if rows else 0.0
+    target = ORIGINAL_PPO_FINAL.get(task)
+    hit = next((r for r in rows if comparable(r) >= target), None) if target else None
+    fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
+    last, prev = (window(rows, end - 1e7, end, comparable),
+                  window(rows, end - 2e7, end - 1e7, comparable))
+    slast, sprev = (window(rows, end - 1e7, end, lambda r: num(r, "success")),
+                    window(rows, end - 2e7, end - 1e7, lambda r: num(r, "success")))
+    rising = (last is not None and prev is not None and last - prev > 0.02 * max(abs(prev), 1)) \
+        or (slast is not None and sprev is not None and slast - sprev > 0.02)
+    commands = open(f"{d}/commands.txt").read().splitlines() if os.path.exists(f"{d}/commands.txt") else []
+    t = {
+        "task": task, "seed": int(seed or 0), "run": name,
+        "commands": commands,
+        "slot_steps": int(end), "wall_s": float(rows[-1]["wall_s"]) if rows else 0.0,
+        "finished": bool(summary and summary.get("finished")),
+        "train_fps_median": fps[len(fps) // 2] if fps else None,
+        "train_return_last_10M": window(rows, end - 1e7, end, lambda r: num(r, "return")),
+        "train_return_no_bonus_last_10M": last,
+        "train_success_last_10M": slast,
+        "still_rising": bool(rising),
+        "original_ppo_final": target,
+        "reached_original": hit is not None,
+        "reached_at": None if hit is None else {
+            "wall_s": float(hit["wall_s"]), "slot_steps": int(float(hit["steps"])),
+            "return_no_bonus": comparable(hit)},
+        "eval": None if ev is None else {
+            "update": ev.get("update"), "episodes": ev["episodes"],
+            "return": ev["mean_return"], "std": ev["std_return"],
+            "success": ev["success_rate"], "length": ev["mean_length"], "faults": ev["faults"]},
+        "gpu_rows": summary.get("gpu_rows") if summary else None,
+    }
+    json.dump({k: t[k] for k in ("task", "seed", "original_ppo_final", "reached_original",
+                                 "reached_at", "slot_steps", "wall_s", "train_fps_median")},
+              open(f"{d}/time_to_target.json", "w"), indent=2)
+    return t
+
+
+def main():
+    if len(sys.argv) < 5:
+        sys.exit(__doc__)
+    outdir, machine, commit, specs = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]
+    out = {
+        "what": "PPO at the paper's settings (16,384 slots, 16 minibatches) on every task on the "
+                "GPU path; each final policy's mean action evaluated over 256 episodes on the CPU "
+                "path; the wall time and slot-steps at which the mean training return (without "
+                "bidex's goal bonus) first reached the original's published PPO final",
+        "machine": machine, "commit": commit,
+        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "runs": [summarise(outdir, s) for s in specs],
+    }
+    tmp = os.path.join(outdir, "sweep.json.tmp")
+    json.dump(out, open(tmp, "w"), indent=2)
+    os.replace(tmp, os.path.join(outdir, "sweep.json"))
+    for t in out["runs"]:
+        e = t["eval"] or {}
+        print(f"{t['run']:<24} {t['slot_steps'] / 1e6:6.1f}M {t['wall_s']:6.0f}s "
+              f"train {t['train_return_last_10M'] or float('nan'):9.2f} "
+              f"eval {e.get('return', float('nan')):9.2f} success {e.get('success', float('nan')):.2f} "
+              f"len {e.get('length', float('nan')):.0f} faults {e.get('faults')} "
+              f"{'rising' if t['still_rising'] else ''} "
+              f"{'reached ' + str(t['reached_at']) if t['reached_original'] else ''}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,166 @@
+#!/usr/bin/env bash
+# The PPO sweep of all twenty tasks (tasks/README.md, "The PPO sweep") on a GPU machine without
+# package access, in slices that fit one device call each:
+#   bench/sweep_run.sh build OUTDIR PARTS
+#       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
+#   bench/sweep_run.sh start OUTDIR SECONDS LANE...
+#       LANE is GPU=RUN,RUN,... and RUN is TASK or TASK/sSEED (seed 0 by default). Each lane runs
+#       in its own process session (it outlives the device call), its runs one after the other
+#       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
+#       minibatches (the task's section of configs/train/ppo.yaml applies) to $SWEEP_STEPS
+#       slot-steps (default 50M), then the final policy's mean action over 256 episodes on the
+#       CPU path. A lane that has time left resumes, towards 100M, its runs whose return or
+#       success still rose over their last 10M slot-steps, and evaluates them again. Every run
+#       stops SECONDS after this call, whatever it has reached.
+#   bench/sweep_run.sh wait OUTDIR SECONDS
+#       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute
+#   bench/sweep_run.sh collect OUTDIR
+#       per run OUTDIR/RUN/ (which holds its commands, logs and eval.json from the start):
+#       config.yaml, run.json, metrics.csv, learning_curve.svg, summary.json and
+#       time_to_target.json; OUTDIR/sweep.json
+#       (bench/sweep_table.py makes the table and the grid figure from it)
+# Run folders stay on the machine under $SWEEP_RUNS (default /tmp/bidex-sweep). BIDEX_COMMIT
+# names the commit in the results; BIDEX_GPU_BUILD is the build folder (default build-gpu).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+stage=${1:?stage: build, start, wait or collect}
+out=$(realpath -m "${2:?OUTDIR}")
+shift 2
+build=${BIDEX_GPU_BUILD:-build-gpu}
+bidex=$(realpath -m "$build/apps/bidex")
+runs=${SWEEP_RUNS:-/tmp/bidex-sweep}
+steps=${SWEEP_STEPS:-50000000}
+slots=${SWEEP_SLOTS:-16384}    # SWEEP_SLOTS and SWEEP_DEVICE=cpu: a small rehearsal without a GPU
+device=${SWEEP_DEVICE:-cuda}
+mkdir -p "$out" "$runs"
+
+# run_dir RUN: the run folder of TASK or TASK/sSEED
+run_dir() { echo "$runs/${1//\//-}"; }
+
+# still_rising RUN_DIR: exit 0 when the mean training return or success of the last 10M
+# slot-steps beats that of the 10M before by more than 2%
+still_rising() {
+  python3 - "$1/metrics.csv" <<'PY'
+import csv, os, sys
+if not os.path.exists(sys.argv[1]):
+    sys.exit(1)
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["return"] != ""]
+if not rows:
+    sys.exit(1)
+end = float(rows[-1]["steps"])
+def window(lo, hi, key):
+    v = [float(r[key]) for r in rows if lo < float(r["steps"]) <= hi and r[key] != ""]
+    return sum(v) / len(v) if v else None
+last, prev = window(end - 1e7, end, "return"), window(end - 2e7, end - 1e7, "return")
+slast, sprev = window(end - 1e7, end, "success"), window(end - 2e7, end - 1e7, "success")
+up = last is not None and prev is not None and last - prev > 0.02 * max(abs(prev), 1.0)
+up = up or (slast is not None and sprev is not None and slast - sprev > 0.02)
+sys.exit(0 if up else 1)
+PY
+}
+
+# lane GPU DEADLINE RUN...: trains and evaluates the runs one after the other, then extends
+lane() {
+  local gpu=$1 deadline=$2
+  shift 2
+  export CUDA_VISIBLE_DEVICES=$gpu
+  local spec task seed dir log left
+  evaluate() {  # evaluate RUN
+    local log="$out/${1//\//-}"
+    local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 4
+                --json "$log/eval.json")
+    echo "bidex ${args[*]}" >>"$log/commands.txt"
+    "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
+  }
+  for spec in "$@"; do
+    task=${spec%%/*}; seed=0
+    [[ $spec == */s* ]] && seed=${spec##*/s}
+    dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
+    mkdir -p "$log"
+    left=$((deadline - $(date +%s) - 90))
+    ((left > 30)) || { echo "$spec: no time left" >>"$out/lanes.log"; continue; }
+    local args
+    if [[ -f $dir/config.yaml ]]; then
+      args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
+    else
+      args=(train --task "$task" --device "$device" --run "$dir" --no-registry --time-limit "$left"
+            -o env.slots="$slots" -o ppo.minibatches=16 -o seed="$seed" -o train.steps="$steps"
+            -o train.save_interval=50)
+    fi
+    echo "bidex ${args[*]}" >>"$log/commands.txt"
+    echo "$(date -u +%T) $spec: start on GPU $gpu" >>"$out/lanes.log"
+    "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"  # --time-limit exits 130
+    evaluate "$spec"
+    echo "$(date -u +%T) $spec: done" >>"$out/lanes.log"
+  done
+  local rising=()
+  for spec in "$@"; do still_rising "$(run_dir "$spec")" && rising+=("$spec"); done
+  local n=${#rising[@]} i=0
+  for spec in "${rising[@]}"; do
+    dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
+    left=$(((deadline - $(date +%s) - 90 * (n - i)) / (n - i)))
+    i=$((i + 1))
+    ((left > 60)) || continue
+    sed -i 's/^  steps: .*/  steps: 100000000/' "$dir/config.yaml"
+    local args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
+    echo "bidex ${args[*]}  # still rising: extended towards 100M" >>"$log/commands.txt"
+    echo "$(date -u +%T) $spec: extend for ${left}s on GPU $gpu" >>"$out/lanes.log"
+    "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"
+    evaluate "$spec"
+    echo "$(date -u +%T) $spec: extended" >>"$out/lanes.log"
+  done
+}
+
+case "$stage" in
+build)
+  bench/physics_step_run.sh build "$out" "${1:?PARTS}"
+  ;;
+start)
+  seconds=${1:?SECONDS}; shift
+  deadline=$(($(date +%s) + seconds))
+  echo "$deadline" >"$out/deadline"
+  for spec in "$@"; do
+    gpu=${spec%%=*}
+    IFS=, read -ra list <<<"${spec#*=}"
+    echo "${list[*]}" >>"$out/lanes"
+    export -f lane run_dir still_rising
+    export out runs steps slots device bidex
+    setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
+      </dev/null >>"$out/lanes.log" 2>&1 &
+  done
+  echo "started $# lanes; every run stops by $(date -u -d @"$deadline" +%T) UTC"
+  ;;
+wait)
+  limit=$(($(date +%s) + ${1:?SECONDS}))
+  total=$(wc -l <"$out/lanes")
+  while :; do
+    done_n=$(cat "$out/lanes.done" 2>/dev/null | wc -l)
+    date -u +%T
+    for spec in $(cat "$out/lanes"); do
+      m=$(run_dir "$spec")/metrics.csv
+      [[ -f $m ]] || continue
+      tail -n 1 "$m" | awk -F, -v s="$spec" '{printf "  %-22s %6.1fM  return %s  success %s  fps %.0f\n", s, $2 / 1e6, $7, $9, $4}'
+    done
+    ((done_n >= total)) && { echo "all $total lanes done"; break; }
+    (($(date +%s) + 60 > limit)) && { echo "$done_n of $total lanes done"; break; }
+    sleep 60
+  done
+  ;;
+collect)
+  for spec in $(cat "$out/lanes"); do
+    dir=$(run_dir "$spec"); name=${spec//\//-}
+    mkdir -p "$out/$name"
+    cp "$dir"/{config.yaml,run.json,metrics.csv,learning_curve.svg,summary.json} "$out/$name/" \
+      2>/dev/null
+  done
+  gpus=$(nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null)
+  machine="$(grep -c . <<<"$gpus") x $(head -1 <<<"$gpus"), $(nproc) cores"
+  [[ -n $gpus ]] || machine="$(nproc) cores, no GPU"
+  python3 bench/sweep_collect.py "$out" "$machine" \
+    "${BIDEX_COMMIT:-unknown}" $(cat "$out/lanes")
+  ;;
+*)
+  echo "unknown stage $stage (build, start, wait or collect)" >&2
+  exit 2
+  ;;
+esac
