@@ -9,9 +9,10 @@
 #       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
 #       minibatches (the task's section of configs/train/ppo.yaml applies) to $SWEEP_STEPS
 #       slot-steps (default 50M), then the final policy's mean action over 256 episodes on the
-#       CPU path. A lane that has time left resumes, towards 100M, its runs whose return or
-#       success still rose over their last 10M slot-steps, and evaluates them again. Every run
-#       stops SECONDS after this call, whatever it has reached.
+#       CPU path. Once every lane of its GPU is through its runs, a lane that has time left
+#       resumes, towards 100M, its runs whose return or success still rose over their last 10M
+#       slot-steps, and evaluates them again. Every run stops 240 s before the deadline, SECONDS
+#       after this call, whatever it has reached, and is evaluated by then.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute
 #   bench/sweep_run.sh collect OUTDIR
@@ -32,6 +33,7 @@ runs=${SWEEP_RUNS:-/tmp/bidex-sweep}
 steps=${SWEEP_STEPS:-50000000}
 slots=${SWEEP_SLOTS:-16384}    # SWEEP_SLOTS and SWEEP_DEVICE=cpu: a small rehearsal without a GPU
 device=${SWEEP_DEVICE:-cuda}
+reserve=240  # seconds a run stops before the deadline, for its evaluation (8 threads)
 mkdir -p "$out" "$runs"
 
 # run_dir RUN: the run folder of TASK or TASK/sSEED
@@ -67,7 +69,7 @@ lane() {
   local spec task seed dir log left
   evaluate() {  # evaluate RUN
     local log="$out/${1//\//-}"
-    local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 4
+    local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 8
                 --json "$log/eval.json")
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
@@ -77,7 +79,7 @@ lane() {
     [[ $spec == */s* ]] && seed=${spec##*/s}
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
     mkdir -p "$log"
-    left=$((deadline - $(date +%s) - 90))
+    left=$((deadline - $(date +%s) - reserve))
     ((left > 30)) || { echo "$spec: no time left" >>"$out/lanes.log"; continue; }
     local args
     if [[ -f $dir/config.yaml ]]; then
@@ -93,12 +95,17 @@ lane() {
     evaluate "$spec"
     echo "$(date -u +%T) $spec: done" >>"$out/lanes.log"
   done
+  # extend only once every lane of this GPU has done its first pass: an extension must not slow
+  # down runs that are still short of $steps
+  echo "$spec" >>"$out/gpu$gpu.first"
+  while (($(wc -l <"$out/gpu$gpu.first") < $(cat "$out/gpu$gpu.lanes"))) &&
+        (($(date +%s) < deadline - reserve)); do sleep 10; done
   local rising=()
   for spec in "$@"; do still_rising "$(run_dir "$spec")" && rising+=("$spec"); done
   local n=${#rising[@]} i=0
   for spec in "${rising[@]}"; do
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
-    left=$(((deadline - $(date +%s) - 90 * (n - i)) / (n - i)))
+    left=$(((deadline - $(date +%s) - reserve * (n - i)) / (n - i)))
     i=$((i + 1))
     ((left > 60)) || continue
     sed -i 's/^  steps: .*/  steps: 100000000/' "$dir/config.yaml"
@@ -119,12 +126,15 @@ start)
   seconds=${1:?SECONDS}; shift
   deadline=$(($(date +%s) + seconds))
   echo "$deadline" >"$out/deadline"
+  for spec in "$@"; do echo "${spec%%=*}"; done | sort | uniq -c | while read -r n g; do
+    echo "$n" >"$out/gpu$g.lanes"
+  done
   for spec in "$@"; do
     gpu=${spec%%=*}
     IFS=, read -ra list <<<"${spec#*=}"
     echo "${list[*]}" >>"$out/lanes"
     export -f lane run_dir still_rising
-    export out runs steps slots device bidex
+    export out runs steps slots device bidex reserve
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &
   done
