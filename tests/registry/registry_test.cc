@@ -31,14 +31,17 @@ using registry::Registry;
 namespace {
 
 // The ground truth of configs/registry/references.yaml, written out here by hand: the original
-// code's final PPO returns of the catch family, and bidex's own PPO where the original's are
-// missing or on another reward scale (each with its own source).
+// code's final PPO returns of the catch family and the doors (the original's rewards), and
+// bidex's own PPO where the original's are missing or on another reward scale (hand_over pays
+// bidex's goal bonus), each with its own source.
 const std::string kOriginal =
     "original code's published PPO learning curves, final value near 1e8 steps, mean of 10 seeds";
 const std::vector<std::pair<std::string, double>> kGroundTruth = {
-    {"hand_over", 30.8},          {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
-    {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"lift_underarm", 1341.65},
-    {"scissors", 381.835}};
+    {"hand_over", 269.0},         {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
+    {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_inward", 467},
+    {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
+    {"lift_underarm", 1341.65},   {"scissors", 381.835},         {"bottle_cap", 493.569},
+    {"push_block", 602.088},      {"switch", 452.254}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
@@ -115,7 +118,7 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.task("grasp_and_place")->obs_dim == 425);
     CHECK_FALSE(reg.task("catch_underarm_raise"));  // variants are not registered
 
-    // the nine ground truths and the twenty measured random scores
+    // the fourteen ground truths and the twenty measured random scores
     const auto refs = reg.references();
     CHECK(refs.size() == kGroundTruth.size() + 20);
     for (auto& [task, value] : kGroundTruth) {
@@ -123,18 +126,19 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
       const auto r = reg.reference(task, "ground_truth");
       REQUIRE(r);
       CHECK(r->value == Approx(value));
-      if (task.rfind("catch", 0) == 0 || task == "hand_over" || task == "two_catch_underarm")
+      if (task.rfind("catch", 0) == 0 || task.rfind("door", 0) == 0 || task == "two_catch_underarm")
         CHECK(r->source == kOriginal);
       else
         CHECK(r->source.rfind("bidex PPO on the GPU path, ", 0) == 0);
     }
     CHECK(reg.reference("scissors", "ground_truth")->source.find(
               "gpu-references-h100/references-ml20-test.json") != std::string::npos);
-    CHECK_FALSE(reg.reference("pen", "ground_truth"));
-    // the doors' version 1 values were withdrawn with their change of reward (issue 36)
-    for (const char* door : {"door_open_outward", "door_close_inward", "door_open_inward",
-                             "door_close_outward"})
-      CHECK_FALSE(reg.reference(door, "ground_truth"));
+    CHECK(reg.reference("switch", "ground_truth")->source.find(
+              "sweep-h100x4/switch/eval.json") != std::string::npos);
+    // the tasks the sweep has not yet run to 50M slot-steps
+    for (const char* task : {"pen", "swing_cup", "re_orientation", "block_stack", "pour_water",
+                             "grasp_and_place"})
+      CHECK_FALSE(reg.reference(task, "ground_truth"));
     // every paper task has a random score with its source (spot values from references.yaml)
     for (auto& t : reg.tasks(false)) {
       INFO(t.id);
@@ -176,7 +180,7 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
-  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "27");  // 7 ground truths, 20 random
+  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "34");  // 14 ground truths, 20 random
   CHECK(raw.value("SELECT count(*) FROM suites") ==
         std::to_string(taskpack::known_suites().size()));
   CHECK(raw.value("SELECT count(*) FROM suite_members WHERE suite = 'ML20'") == "20");
@@ -192,7 +196,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   }
   Registry reg(path);
   CHECK(reg.tasks(false).size() == 20);
-  CHECK(reg.references().size() == 27);
+  CHECK(reg.references().size() == 34);
   CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
   CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
   CHECK(reg.reference("hand_over", "random")->value == 0.5);
@@ -268,21 +272,21 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
           "reference; an evaluation's scores and their means", "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));
-  // hand_over: ground truth 30.8 (references.yaml), random 2 set here
+  // hand_over: ground truth 269 (references.yaml), random 2 set here
   reg.set_reference({"hand_over", "random", 2.0, "test"});
-  // by hand: (16.4 - 2) / (30.8 - 2) = 14.4 / 28.8 = 0.5
-  REQUIRE(reg.normalised("hand_over", 16.4));
-  CHECK(*reg.normalised("hand_over", 16.4) == Approx(0.5));
+  // by hand: (135.5 - 2) / (269 - 2) = 133.5 / 267 = 0.5
+  REQUIRE(reg.normalised("hand_over", 135.5));
+  CHECK(*reg.normalised("hand_over", 135.5) == Approx(0.5));
   CHECK(*reg.normalised("hand_over", 2.0) == Approx(0.0).margin(1e-12));
-  CHECK(*reg.normalised("hand_over", 30.8) == Approx(1.0));
-  CHECK(*reg.normalised("hand_over", -12.4) == Approx(-0.5));  // below random: negative
-  CHECK(*reg.normalised("hand_over", 45.2) == Approx(1.5));    // above ground truth: > 1
+  CHECK(*reg.normalised("hand_over", 269.0) == Approx(1.0));
+  CHECK(*reg.normalised("hand_over", -131.5) == Approx(-0.5));  // below random: negative
+  CHECK(*reg.normalised("hand_over", 402.5) == Approx(1.5));    // above ground truth: > 1
   // a random score above the return and a ground truth below it: the sign still follows
   reg.set_reference({"pen", "random", 10.0, "test"});
   reg.set_reference({"pen", "ground_truth", -10.0, "test"});
   CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
-  // missing references: the file gives every task a random score, ground truths only to nine
-  CHECK_FALSE(reg.normalised("switch", 10.0));          // random only
+  // missing references: the file gives every task a random score, ground truths to fourteen
+  CHECK_FALSE(reg.normalised("swing_cup", 10.0));       // random only
   CHECK_FALSE(reg.normalised("no_such_task", 10.0));
   // equal references cannot normalise
   reg.set_reference({"scissors", "random", 3.0, "test"});
@@ -290,12 +294,12 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   CHECK_FALSE(reg.normalised("scissors", 10.0));
 
   // a meta-RL evaluation's entries: each before and after, and the means over the entries
-  // whose task has both references (hand_over and pen here; switch has no ground truth)
+  // whose task has both references (hand_over and pen here; swing_cup has no ground truth)
   std::vector<AdaptScore> scores(3);
   scores[0].task = "hand_over";
   scores[0].return_before = 2.0;   // 0
-  scores[0].return_after = 16.4;   // 0.5
-  scores[1].task = "switch";
+  scores[0].return_after = 135.5;  // 0.5
+  scores[1].task = "swing_cup";
   scores[1].return_before = 1.0;
   scores[1].return_after = 2.0;
   scores[2].task = "pen";
@@ -519,8 +523,8 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK(random->value == 1.5);
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
-    CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(30.8));
-    CHECK(reg.references().size() == 2 + 7 + 19);  // the shipped ground truths and 19 random
+    CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(269.0));
+    CHECK(reg.references().size() == 2 + 14 + 19);  // the shipped ground truths and 19 random
     // the new tables work, also for the old runs
     registry::RunRecord done = runs[1];
     done.status = "finished";
@@ -533,7 +537,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     s.algo = "ppo";
     s.suite = "S";
     CHECK(reg.begin_run(s) == 3);
-    CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (30.8 - 1.5)));
+    CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (269.0 - 1.5)));
   }
   RawDb raw(path);
   CHECK(raw.value("PRAGMA user_version") == "4");
@@ -713,8 +717,8 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
     reg.finish_run(id, r, {});  // no per-task scores: the final return stands for the task
     return id;
   };
-  task_run("hand_over", 30.8);                           // older: replaced by the next
-  const int64_t ho = task_run("hand_over", 16.4);        // (16.4 - 2) / 28.8 = 0.5
+  task_run("hand_over", 269.0);                          // older: replaced by the next
+  const int64_t ho = task_run("hand_over", 135.5);       // (135.5 - 2) / 267 = 0.5
   const int64_t lift = task_run("lift_underarm", 591.65);  // 250 / 1000 = 0.25
   task_run("catch_underarm", 10);                        // no random score: not normalised
   const auto rep = registry::age_report(reg);
