@@ -61,12 +61,16 @@ void print_tasks(const Registry& reg, bool by_age) {
               by_age ? ", by human age" : ", in registration order");
   size_t w = 2;
   for (auto& t : tasks) w = std::max(w, t.id.size());
-  std::printf("%-*s  %-7s %-10s %5s %4s  %s\n", static_cast<int>(w), "id", "age", "difficulty",
-              "obs", "act", "origin");
+  std::printf("%-*s  %-7s %-10s %5s %4s %10s %12s  %s\n", static_cast<int>(w), "id", "age",
+              "difficulty", "obs", "act", "random", "ground_truth", "origin");
+  auto ref = [&](const std::string& task, const char* kind) {
+    const auto r = reg.reference(task, kind);
+    return num(r ? std::optional<double>(r->value) : std::nullopt);
+  };
   for (auto& t : tasks)
-    std::printf("%-*s  %-7s %-10s %5d %4d  %s\n", static_cast<int>(w), t.id.c_str(),
+    std::printf("%-*s  %-7s %-10s %5d %4d %10s %12s  %s\n", static_cast<int>(w), t.id.c_str(),
                 t.age_text.c_str(), t.difficulty.c_str(), t.obs_dim, t.act_dim,
-                t.origin.c_str());
+                ref(t.id, "random").c_str(), ref(t.id, "ground_truth").c_str(), t.origin.c_str());
 }
 
 void print_run(const Registry& reg, const registry::RunRecord& r) {
@@ -148,7 +152,8 @@ void add_registry_command(CLI::App& app) {
     auto o = std::make_shared<Opts>();
     auto* cmd = reg->add_subcommand(
         "list", "The registered tasks: id, human age, difficulty, observation and action "
-                "widths, origin (builtin or the YAML file it was added from)");
+                "widths, reference scores (a random policy's return and the ground truth, '-' "
+                "where there is none), origin (builtin or the YAML file it was added from)");
     add_registry_option(cmd, o->registry);
     cmd->add_option("--by", o->by,
                     "Order: 'age' (age_min, then age_max, then id); left out: registration "

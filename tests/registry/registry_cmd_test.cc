@@ -66,11 +66,15 @@ TEST_CASE("bidex registry list: the paper's tasks, by age with --by age", "[regi
   CHECK(has_text(r.out, "20 tasks, by human age"));
   check_order(r.out, paper_tasks_by_age());
   CHECK(has_text(r.out, "\nhand_over "));
-  // columns: id, age, difficulty, obs, act, origin
-  CHECK(has_row(r.out, {"id", "age", "difficulty", "obs", "act", "origin"}));
-  CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "446", "52", "builtin"}));
-  CHECK(has_row(r.out, {"push_block", "5-6", "easy", "417", "52", "builtin"}));
-  CHECK(has_row(r.out, {"grasp_and_place", "22-28", "medium", "425", "52", "builtin"}));
+  // columns: id, age, difficulty, obs, act, random, ground truth (configs/registry/
+  // references.yaml, 4 significant digits), origin
+  CHECK(has_row(r.out, {"id", "age", "difficulty", "obs", "act", "random", "ground_truth",
+                        "origin"}));
+  CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "446", "52", "1.601", "14.1",
+                        "builtin"}));
+  CHECK(has_row(r.out, {"push_block", "5-6", "easy", "417", "52", "231.8", "602.1", "builtin"}));
+  CHECK(has_row(r.out, {"grasp_and_place", "22-28", "medium", "425", "52", "17.22", "-",
+                        "builtin"}));
 
   r = reg_run("list", path);
   REQUIRE(r.rc == 0);
