@@ -15,16 +15,21 @@
 #       after this call, whatever it has reached, and is evaluated by then.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute
+#   bench/sweep_run.sh stop OUTDIR RUN...
+#       stops those runs for good (their lanes end; each run writes a checkpoint and keeps its
+#       folder), to give the GPU to the others; noted in OUTDIR/stopped.txt
 #   bench/sweep_run.sh collect OUTDIR
 #       per run OUTDIR/RUN/ (which holds its commands, logs and eval.json from the start):
 #       config.yaml, run.json, metrics.csv, learning_curve.svg, summary.json and
 #       time_to_target.json; OUTDIR/sweep.json
 #       (bench/sweep_table.py makes the table and the grid figure from it)
+#   bench/sweep_run.sh pack OUTDIR DEST
+#       OUTDIR as DEST/sweep.tgz, without the training logs, and those logs as DEST/logs.tgz
 # Run folders stay on the machine under $SWEEP_RUNS (default /tmp/bidex-sweep). BIDEX_COMMIT
 # names the commit in the results; BIDEX_GPU_BUILD is the build folder (default build-gpu).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-stage=${1:?stage: build, start, wait or collect}
+stage=${1:?stage: build, start, wait, stop, collect or pack}
 out=$(realpath -m "${2:?OUTDIR}")
 shift 2
 build=${BIDEX_GPU_BUILD:-build-gpu}
@@ -156,6 +161,22 @@ wait)
     sleep 60
   done
   ;;
+stop)
+  for spec in "$@"; do
+    name=${spec//\//-}
+    pkill -KILL -f "lanes.done [0-9]+ [0-9]+ ${spec}\$" || { echo "$spec: no lane runs it alone" >&2; continue; }
+    pkill -INT -f "$(run_dir "$spec") --" || true  # Ctrl-C: a checkpoint, then the run ends
+    echo "$(date -u +%T) $spec: stopped at $(tail -n 1 "$(run_dir "$spec")/metrics.csv" 2>/dev/null | cut -d, -f2) slot-steps" | tee -a "$out/stopped.txt"
+  done
+  ;;
+pack)
+  dest=$(realpath -m "${1:?DEST}")
+  mkdir -p "$dest"
+  tar czf "$dest/sweep.tgz" --exclude=progress.log --exclude=train.txt -C "$(dirname "$out")" "$(basename "$out")"
+  (cd "$(dirname "$out")" && find "$(basename "$out")" \( -name progress.log -o -name train.txt \) -print0 |
+     tar czf "$dest/logs.tgz" --null -T -)
+  ls -l "$dest"
+  ;;
 collect)
   for spec in $(cat "$out/lanes"); do
     dir=$(run_dir "$spec"); name=${spec//\//-}
@@ -170,7 +191,7 @@ collect)
     "${BIDEX_COMMIT:-unknown}" $(cat "$out/lanes")
   ;;
 *)
-  echo "unknown stage $stage (build, start, wait or collect)" >&2
+  echo "unknown stage $stage (build, start, wait, stop, collect or pack)" >&2
   exit 2
   ;;
 esac
