@@ -5,7 +5,7 @@
 #
 #   scripts/offline-build.sh bundle [DEPS]          # where apt works: the .debs and the wheel (default .deps/)
 #   scripts/offline-build.sh bundle-gpu [DEPS]      # the same plus the GPU backend's wheels
-#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts under 60 MB (default .parts/)
+#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts of 38 MiB (default .parts/)
 #   scripts/offline-build.sh join  [PARTS] [DEPS]   # on the target: the parts back into DEPS
 #   scripts/offline-build.sh build  [DEPS] [BUILD]  # on the target: unpack, configure, build
 #
@@ -33,7 +33,7 @@ debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen
       libhdf5-dev libhdf5-103-1 libsz2 libaec0 libssl-dev libssl3)
 
 gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
-part_size=${BIDEX_PART_SIZE:-55M}  # MiB: 57.7 MB, under 60 MB with room for a transfer's other files
+part_size=${BIDEX_PART_SIZE:-38M}  # MiB: a part and the tracked tree (21 MiB in Nov 2026) under a transfer's 64 MiB
 
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
