@@ -133,7 +133,10 @@ def main():
     if not os.path.exists(path):
         sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
     runs = json.load(open(path))["runs"]
-    refs = yaml.safe_load(open(a.references))
+    if not os.path.exists(a.references):
+        sys.exit(f"sweep_table: --references {a.references} not found (run from the repository "
+                 "root, or name the file)")
+    refs = yaml.safe_load(open(a.references)) or {}
     random = {k: value(v) for k, v in ((refs.get("random") or {}).get("values") or {}).items()}
     runs.sort(key=lambda t: (t["original_ppo_final"] is None, t["task"], t["seed"]))
     print(table(runs, random))
