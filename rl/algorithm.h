@@ -5,6 +5,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -86,6 +87,11 @@ class Algorithm {
   // Called by the runner once before training starts or resumes (never for evaluation or
   // rendering): an offline algorithm reads and checks its dataset (TrainConfig::dataset) here.
   virtual void prepare_training() {}
+  // bidex train --profile: the learner times the stages of its update (rl/stage_timer.h),
+  // waiting for the device at each; learner_profile() gives seconds per stage and the count of
+  // its own host synchronisations ("host_syncs"), empty where an algorithm does not split.
+  virtual void enable_profile() {}
+  virtual std::map<std::string, double> learner_profile() const { return {}; }
 };
 
 using AlgorithmFactory = std::function<std::unique_ptr<Algorithm>(

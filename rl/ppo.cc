@@ -57,7 +57,9 @@ void Ppo::set_lr(double lr) {
 }
 
 UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
+  timer_.start();
   auto [adv, ret] = gae(r.rewards, r.values, r.dones, last_value, c_.gamma, c_.lambda);
+  timer_.mark("gae");
   const int64_t B = r.horizon * r.nslot;
   auto nobs = r.nobs.reshape({B, -1});
   auto actions = r.actions.reshape({B, -1});
@@ -75,6 +77,7 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
     values_old_raw = model_->value_norm()->normalize(values_old.unsqueeze(1)).squeeze(1);
   }
   const auto log_std_old = r.log_std.detach();
+  timer_.mark("prepare");
   const int64_t mb = B / c_.minibatches;
   UpdateStats st;
   int n = 0;
@@ -89,15 +92,18 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
       auto mu = model_->mean(o);
       auto log_std = model_->log_std();
       auto logp = gaussian_log_prob(a, mu, log_std);
+      timer_.mark("forward");
       double kl = 0;
       {
         torch::NoGradGuard ng;
         kl = gaussian_kl(mu_old.index_select(0, idx), log_std_old, mu, log_std).mean().item<double>();
       }
+      timer_.count_syncs(1);  // the KL read back for the adaptive learning rate
       if (c_.schedule == "adaptive") {
         if (kl > 2.0 * c_.desired_kl) set_lr(std::max(1e-5, lr_ / 1.5));
         else if (kl < 0.5 * c_.desired_kl && kl > 0.0) set_lr(std::min(1e-2, lr_ * 1.5));
       }
+      timer_.mark("kl_check");
       auto adv_mb = advantages.index_select(0, idx);
       auto ratio = torch::exp(logp - logp_old.index_select(0, idx));
       auto policy_loss = clipped_surrogate(ratio, adv_mb, c_.clip);
@@ -113,21 +119,28 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
       }
       auto entropy = gaussian_entropy(log_std);
       auto loss = policy_loss + c_.value_coef * value_loss - c_.entropy_coef * entropy;
+      timer_.mark("forward");
       opt_->zero_grad();
       loss.backward();
+      timer_.mark("backward");
       torch::nn::utils::clip_grad_norm_(model_->parameters(), c_.max_grad_norm);
+      timer_.count_syncs(1);  // LibTorch's clip_grad_norm_ returns the norm as a double
+      timer_.mark("clip_grad");
       opt_->step();
+      timer_.mark("optimizer");
       {
         torch::NoGradGuard ng;
         auto clipped = ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean();
         sums += torch::stack({policy_loss, value_loss, entropy, clipped}).to(torch::kFloat64);
       }
+      timer_.mark("stats");
       st.kl += kl;
       ++n;
     }
   }
   if (n > 0) {
     auto m = (sums / n).to(torch::kCPU);
+    timer_.count_syncs(1);
     st.policy_loss = m[0].item<double>();
     st.value_loss = m[1].item<double>();
     st.entropy = m[2].item<double>();
@@ -135,6 +148,7 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
     st.kl /= n;
   }
   st.lr = lr_;
+  timer_.mark("read_stats");
   return st;
 }
 
@@ -163,6 +177,11 @@ class PpoAlgorithm final : public GaussianOnPolicy {
     static const std::vector<std::string> names = {"policy_loss", "value_loss", "entropy", "kl",
                                                    "lr",          "clip_fraction", "action_std"};
     return names;
+  }
+
+  void enable_profile() override { ppo_->timer().enable(ro_->nobs.device()); }
+  std::map<std::string, double> learner_profile() const override {
+    return ppo_->timer().totals();
   }
 
   void save(torch::serialize::OutputArchive& root) override {

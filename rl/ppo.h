@@ -10,6 +10,7 @@
 #include "rl/algorithm.h"
 #include "rl/config.h"
 #include "rl/policy.h"
+#include "rl/stage_timer.h"
 
 namespace bidex::rl {
 
@@ -55,12 +56,16 @@ class Ppo {
   torch::optim::Adam& optimizer() { return *opt_; }
   double lr() const { return lr_; }
   void set_lr(double lr);
+  // Times update()'s stages from now on (gae, prepare, forward, kl_check, backward, clip_grad,
+  // optimizer, stats, read_stats) and counts its host synchronisations.
+  StageTimer& timer() { return timer_; }
 
  private:
   ActorCritic model_;
   PpoConfig c_;
   std::unique_ptr<torch::optim::Adam> opt_;
   double lr_;
+  StageTimer timer_;
 };
 
 // PPO behind the learning core's Algorithm interface (mtppo is the same on a suite's pack):

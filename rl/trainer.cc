@@ -331,10 +331,17 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
+// monotonic_seconds() once `device`'s queue has drained (--profile's stage boundaries).
+double synced_seconds(const torch::Device& device) {
+  if (device.is_cuda()) torch::cuda::synchronize(device.index());
+  return monotonic_seconds();
+}
+
 // Where a session's time went, per update (--profile).
 struct StepTimes {
   int64_t updates = 0, slot_steps = 0;
   double rollout = 0, sim = 0, update = 0;
+  double act = 0, store = 0;  // the policy's acting and the algorithm's storing, in the rollout
   void add(double rollout_s, double sim_s, double update_s, int64_t batch) {
     updates += 1;
     slot_steps += batch;
@@ -348,10 +355,11 @@ struct StepTimes {
 // steps; on the GPU they divide into physics and task kernels (apply, evaluate, reset, observe,
 // rows); the policy is the rest of the rollout (acting, storing, copies); the update is the
 // learning step.
-void write_profile(const Session& s, const StepTimes& t) {
+void write_profile(const Session& s, const Algorithm& algo, const StepTimes& t) {
   const tasks::StageProfile p = s.env->profile();
   const double total = t.rollout + t.update;
-  nlohmann::json sec = {{"simulation", t.sim}, {"policy", t.rollout - t.sim}, {"update", t.update}};
+  nlohmann::json sec = {{"simulation", t.sim}, {"policy", t.rollout - t.sim}, {"update", t.update},
+                        {"act", t.act}, {"store", t.store}};
   if (s.sim_device != "cpu") {
     sec["task_kernels"] = p.actions + p.task;
     sec["physics"] = p.wall - p.actions - p.task;
@@ -367,6 +375,9 @@ void write_profile(const Session& s, const StepTimes& t) {
                       {"slot_steps_per_s", total > 0 ? t.slot_steps / total : 0.0},
                       {"seconds", sec},
                       {"time", utc_now()}};
+  // the update's stages, where the algorithm splits it (rl/stage_timer.h)
+  const auto learner = algo.learner_profile();
+  if (!learner.empty()) j["learner"] = learner;
   write_file_atomic(s.dir + "/profile.json", j.dump(2) + "\n");
 }
 
@@ -425,7 +436,10 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   std::string diverged;  // why the last update's learner state is not finite (then not saved)
   const double session_start = monotonic_seconds();
   StepTimes times;
-  if (opt.profile) env.set_profile(true);
+  if (opt.profile) {
+    env.set_profile(true);
+    algo.enable_profile();
+  }
   while (s.update < total_updates) {
     const double t_iter = monotonic_seconds();
     if (offline && !first) {
@@ -434,9 +448,13 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     }
     first = false;
     for (int t = 0; t < T && !g_stop; ++t) {
+      const double t_act = opt.profile ? synced_seconds(s.device) : 0.0;
       const torch::Tensor actions = algo.act(obs);
+      if (opt.profile) times.act += synced_seconds(s.device) - t_act;
       Transition tr = collector.step(actions);
+      const double t_store = opt.profile ? synced_seconds(s.device) : 0.0;
       algo.observe(tr);
+      if (opt.profile) times.store += synced_seconds(s.device) - t_store;
       if (recorder && !recorder->step(actions, tr)) {
         recorder->finish();
         recorder.reset();
@@ -559,7 +577,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                             {"scores_last_10_updates", scores},
                             {"time", utc_now()}};
   write_file_atomic(s.dir + "/summary.json", summary.dump(2) + "\n");
-  if (opt.profile) write_profile(s, times);
+  if (opt.profile) write_profile(s, algo, times);
   return res;
 }
 

@@ -188,6 +188,25 @@ TEST_CASE("training runs on the GPU path's code, records its device and resumes 
     CHECK(prof["seconds"][k].get<double>() >= 0);
   CHECK(prof["seconds"]["physics"].get<double>() > 0);
   CHECK(prof["slot_steps_per_s"].get<double>() > 0);
+  // the rollout's acting and storing, and the update's stages (rl/stage_timer.h): each at least
+  // 0, all within the update's time; two host reads per minibatch (the KL for the learning rate,
+  // the gradient norm) and one for the update's statistics: 2 updates x (2 epochs x 2
+  // minibatches x 2 + 1) = 18
+  CHECK(prof["seconds"]["act"].get<double>() > 0);
+  CHECK(prof["seconds"]["store"].get<double>() >= 0);
+  CHECK(prof["seconds"]["act"].get<double>() + prof["seconds"]["store"].get<double>() <=
+        prof["seconds"]["policy"].get<double>() + prof["seconds"]["simulation"].get<double>());
+  REQUIRE(prof.contains("learner"));
+  double stages = 0;
+  for (const char* k : {"gae", "prepare", "forward", "kl_check", "backward", "clip_grad",
+                        "optimizer", "stats", "read_stats"}) {
+    INFO(k);
+    CHECK(prof["learner"][k].get<double>() >= 0);
+    stages += prof["learner"][k].get<double>();
+  }
+  CHECK(prof["learner"]["forward"].get<double>() > 0);
+  CHECK(stages <= prof["seconds"]["update"].get<double>());
+  CHECK(prof["learner"]["host_syncs"].get<double>() == 18);
 
   // the run goes on from its checkpoint with the simulation on the CPU
   rl::TrainOptions back = test::quiet();
