@@ -24,6 +24,7 @@
 #include "rl/checkpoint.h"
 #include "rl/collector.h"
 #include "rl/metrics.h"
+#include "rl/stage_timer.h"
 #include "sim/batch.h"
 #include "sim/tensor.h"
 #include "sim/warp_backend.h"
@@ -331,17 +332,11 @@ std::string fmt(const char* f, double v) {
   return buf;
 }
 
-// monotonic_seconds() once `device`'s queue has drained (--profile's stage boundaries).
-double synced_seconds(const torch::Device& device) {
-  if (device.is_cuda()) torch::cuda::synchronize(device.index());
-  return monotonic_seconds();
-}
-
 // Where a session's time went, per update (--profile).
 struct StepTimes {
   int64_t updates = 0, slot_steps = 0;
   double rollout = 0, sim = 0, update = 0;
-  double act = 0, store = 0;  // the policy's acting and the algorithm's storing, in the rollout
+  StageTimer policy;  // the rollout's acting ("act") and the algorithm's storing ("store")
   void add(double rollout_s, double sim_s, double update_s, int64_t batch) {
     updates += 1;
     slot_steps += batch;
@@ -358,8 +353,9 @@ struct StepTimes {
 void write_profile(const Session& s, const Algorithm& algo, const StepTimes& t) {
   const tasks::StageProfile p = s.env->profile();
   const double total = t.rollout + t.update;
+  auto policy = t.policy.totals();
   nlohmann::json sec = {{"simulation", t.sim}, {"policy", t.rollout - t.sim}, {"update", t.update},
-                        {"act", t.act}, {"store", t.store}};
+                        {"act", policy["act"]}, {"store", policy["store"]}};
   if (s.sim_device != "cpu") {
     sec["task_kernels"] = p.actions + p.task;
     sec["physics"] = p.wall - p.actions - p.task;
@@ -439,6 +435,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   if (opt.profile) {
     env.set_profile(true);
     algo.enable_profile();
+    times.policy.enable(s.device);
   }
   while (s.update < total_updates) {
     const double t_iter = monotonic_seconds();
@@ -448,13 +445,13 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     }
     first = false;
     for (int t = 0; t < T && !g_stop; ++t) {
-      const double t_act = opt.profile ? synced_seconds(s.device) : 0.0;
+      times.policy.start();
       const torch::Tensor actions = algo.act(obs);
-      if (opt.profile) times.act += synced_seconds(s.device) - t_act;
+      times.policy.mark("act");
       Transition tr = collector.step(actions);
-      const double t_store = opt.profile ? synced_seconds(s.device) : 0.0;
+      times.policy.start();
       algo.observe(tr);
-      if (opt.profile) times.store += synced_seconds(s.device) - t_store;
+      times.policy.mark("store");
       if (recorder && !recorder->step(actions, tr)) {
         recorder->finish();
         recorder.reset();
