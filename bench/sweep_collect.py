@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Summarises the PPO sweep's runs (bench/sweep_run.sh collect): per run OUTDIR/RUN/time_to_target.json
 and one OUTDIR/sweep.json.
-Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK or TASK/sSEED)"""
+Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK or TASK/sSEED)
+       bench/sweep_collect.py --rising METRICS_CSV   (exit 0: the run still rises)"""
 import csv, datetime, json, os, sys
 
 # The original's published PPO finals: the last row of its 10-seed learning curves, about 1e8
@@ -39,23 +40,37 @@ def window(rows, lo, hi, f):
     return mean(f(r) for r in rows if lo < float(r["steps"]) <= hi)
 
 
+def rows_of(path):
+    """The updates of a metrics.csv that ended episodes (an empty list for a missing file)."""
+    if not os.path.exists(path):
+        return []
+    return [r for r in csv.DictReader(open(path)) if r["return"] != ""]
+
+
+def rising(rows):
+    """Whether the mean training return (without goal bonus) or success of the last 10M
+    slot-steps beats that of the 10M before by more than 2%."""
+    if not rows:
+        return False
+    end = float(rows[-1]["steps"])
+    last, prev = (window(rows, end - 1e7, end, comparable),
+                  window(rows, end - 2e7, end - 1e7, comparable))
+    slast, sprev = (window(rows, end - 1e7, end, lambda r: num(r, "success")),
+                    window(rows, end - 2e7, end - 1e7, lambda r: num(r, "success")))
+    return (last is not None and prev is not None and last - prev > 0.02 * max(abs(prev), 1)) \
+        or (slast is not None and sprev is not None and slast - sprev > 0.02)
+
+
 def summarise(outdir, spec):
     task, _, seed = spec.partition("/s")
     name = spec.replace("/", "-")
     d = os.path.join(outdir, name)
-    rows = [r for r in csv.DictReader(open(f"{d}/metrics.csv")) if r["return"] != ""] \
-        if os.path.exists(f"{d}/metrics.csv") else []
+    rows = rows_of(f"{d}/metrics.csv")
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)
     hit = next((r for r in rows if comparable(r) >= target), None) if target else None
     fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
-    last, prev = (window(rows, end - 1e7, end, comparable),
-                  window(rows, end - 2e7, end - 1e7, comparable))
-    slast, sprev = (window(rows, end - 1e7, end, lambda r: num(r, "success")),
-                    window(rows, end - 2e7, end - 1e7, lambda r: num(r, "success")))
-    rising = (last is not None and prev is not None and last - prev > 0.02 * max(abs(prev), 1)) \
-        or (slast is not None and sprev is not None and slast - sprev > 0.02)
     commands = open(f"{d}/commands.txt").read().splitlines() if os.path.exists(f"{d}/commands.txt") else []
     t = {
         "task": task, "seed": int(seed or 0), "run": name,
@@ -64,9 +79,9 @@ def summarise(outdir, spec):
         "finished": bool(summary and summary.get("finished")),
         "train_fps_median": fps[len(fps) // 2] if fps else None,
         "train_return_last_10M": window(rows, end - 1e7, end, lambda r: num(r, "return")),
-        "train_return_no_bonus_last_10M": last,
-        "train_success_last_10M": slast,
-        "still_rising": bool(rising),
+        "train_return_no_bonus_last_10M": window(rows, end - 1e7, end, comparable),
+        "train_success_last_10M": window(rows, end - 1e7, end, lambda r: num(r, "success")),
+        "still_rising": rising(rows),
         "original_ppo_final": target,
         "reached_original": hit is not None,
         "reached_at": None if hit is None else {
@@ -85,6 +100,8 @@ def summarise(outdir, spec):
 
 
 def main():
+    if len(sys.argv) == 3 and sys.argv[1] == "--rising":  # bench/sweep_run.sh's extensions
+        sys.exit(0 if rising(rows_of(sys.argv[2])) else 1)
     if len(sys.argv) < 5:
         sys.exit(__doc__)
     outdir, machine, commit, specs = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]

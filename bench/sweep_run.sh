@@ -44,27 +44,8 @@ mkdir -p "$out" "$runs"
 # run_dir RUN: the run folder of TASK or TASK/sSEED
 run_dir() { echo "$runs/${1//\//-}"; }
 
-# still_rising RUN_DIR: exit 0 when the mean training return or success of the last 10M
-# slot-steps beats that of the 10M before by more than 2%
-still_rising() {
-  python3 - "$1/metrics.csv" <<'PY'
-import csv, os, sys
-if not os.path.exists(sys.argv[1]):
-    sys.exit(1)
-rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["return"] != ""]
-if not rows:
-    sys.exit(1)
-end = float(rows[-1]["steps"])
-def window(lo, hi, key):
-    v = [float(r[key]) for r in rows if lo < float(r["steps"]) <= hi and r[key] != ""]
-    return sum(v) / len(v) if v else None
-last, prev = window(end - 1e7, end, "return"), window(end - 2e7, end - 1e7, "return")
-slast, sprev = window(end - 1e7, end, "success"), window(end - 2e7, end - 1e7, "success")
-up = last is not None and prev is not None and last - prev > 0.02 * max(abs(prev), 1.0)
-up = up or (slast is not None and sprev is not None and slast - sprev > 0.02)
-sys.exit(0 if up else 1)
-PY
-}
+# still_rising RUN_DIR: exit 0 when the run still rises (bench/sweep_collect.py's rule)
+still_rising() { python3 bench/sweep_collect.py --rising "$1/metrics.csv"; }
 
 # lane GPU DEADLINE RUN...: trains and evaluates the runs one after the other, then extends
 lane() {

@@ -4,9 +4,12 @@ prints one markdown table and writes DIR/sweep-curves.svg and .png (rsvg-convert
 learning curves in a grid, each with the original's published final, the random policy's
 return and the mean action's evaluation.
 Usage: bench/sweep_table.py DIR [--references configs/registry/references.yaml]"""
-import argparse, csv, json, os, shutil, subprocess, sys
+import argparse, json, os, shutil, subprocess, sys
 
 import yaml
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from sweep_collect import comparable, rows_of  # noqa: E402  (the one definition of both)
 
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"]
 
@@ -16,15 +19,8 @@ def value(v):
 
 
 def curve(path):
-    if not os.path.exists(path):
-        return []
-    pts = []
-    for r in csv.DictReader(open(path)):
-        if r["return"] == "":
-            continue
-        bonus = float(r.get("term_goal_bonus") or 0)
-        pts.append((float(r["steps"]), float(r["return"]), float(r["return"]) - bonus))
-    return pts
+    """(slot-steps, training return, the same without goal bonus) per update."""
+    return [(float(r["steps"]), float(r["return"]), comparable(r)) for r in rows_of(path)]
 
 
 def fmt(v, digits=1):
