@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Summarises the PPO sweep's runs (bench/sweep_run.sh collect): per run OUTDIR/RUN/time_to_target.json
 and one OUTDIR/sweep.json.
-Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK or TASK/sSEED)
+Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK[/sSEED][/mMILLIONS][/cNAME], bench/sweep_run.sh)
        bench/sweep_collect.py --rising METRICS_CSV   (exit 0: the run still rises)"""
 import csv, datetime, json, os, sys
 
@@ -62,7 +62,9 @@ def rising(rows):
 
 
 def summarise(outdir, spec):
-    task, _, seed = spec.partition("/s")
+    task, *parts = spec.split("/")
+    seed = next((p[1:] for p in parts if p.startswith("s")), "0")
+    config = next((p[1:] for p in parts if p.startswith("c")), None)
     name = spec.replace("/", "-")
     d = os.path.join(outdir, name)
     rows = rows_of(f"{d}/metrics.csv")
@@ -73,7 +75,8 @@ def summarise(outdir, spec):
     fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
     commands = open(f"{d}/commands.txt").read().splitlines() if os.path.exists(f"{d}/commands.txt") else []
     t = {
-        "task": task, "seed": int(seed or 0), "run": name,
+        "task": task, "seed": int(seed), "run": name,
+        "task_config": None if config is None else f"bench/sweep/{config}.yaml",
         "commands": commands,
         "slot_steps": int(end), "wall_s": float(rows[-1]["wall_s"]) if rows else 0.0,
         "finished": bool(summary and summary.get("finished")),

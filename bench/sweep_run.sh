@@ -4,7 +4,9 @@
 #   bench/sweep_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
-#       LANE is GPU=RUN,RUN,... and RUN is TASK or TASK/sSEED (seed 0 by default). Each lane runs
+#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME]: seed (0 by default),
+#       slot-steps in millions (default $SWEEP_STEPS) and a task YAML bench/sweep/NAME.yaml in
+#       place of the task's default (env.task_config; the file says why). Each lane runs
 #       in its own process session (it outlives the device call), its runs one after the other
 #       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
 #       minibatches (the task's section of configs/train/ppo.yaml applies) to $SWEEP_STEPS
@@ -52,7 +54,7 @@ lane() {
   local gpu=$1 deadline=$2
   shift 2
   export CUDA_VISIBLE_DEVICES=$gpu
-  local spec task seed dir log left
+  local spec task seed msteps cfg part dir log left
   evaluate() {  # evaluate RUN
     local log="$out/${1//\//-}"
     local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 8
@@ -61,8 +63,16 @@ lane() {
     "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
   }
   for spec in "$@"; do
-    task=${spec%%/*}; seed=0
-    [[ $spec == */s* ]] && seed=${spec##*/s}
+    IFS=/ read -ra part <<<"$spec"
+    task=${part[0]}; seed=0; msteps=$steps; cfg=()
+    for p in "${part[@]:1}"; do
+      case $p in
+        s*) seed=${p#s} ;;
+        m*) msteps=$((${p#m} * 1000000)) ;;
+        c*) cfg=(-o env.task_config="bench/sweep/${p#c}.yaml") ;;
+        *) echo "$spec: unknown part $p (sSEED, mMILLIONS or cNAME)" >>"$out/lanes.log"; continue 2 ;;
+      esac
+    done
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
     mkdir -p "$log"
     left=$((deadline - $(date +%s) - reserve))
@@ -72,8 +82,8 @@ lane() {
       args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
     else
       args=(train --task "$task" --device "$device" --run "$dir" --no-registry --time-limit "$left"
-            -o env.slots="$slots" -o ppo.minibatches=16 -o seed="$seed" -o train.steps="$steps"
-            -o train.save_interval=50)
+            -o env.slots="$slots" -o ppo.minibatches=16 -o seed="$seed" -o train.steps="$msteps"
+            -o train.save_interval=50 "${cfg[@]}")
     fi
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     echo "$(date -u +%T) $spec: start on GPU $gpu" >>"$out/lanes.log"

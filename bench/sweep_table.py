@@ -1,9 +1,11 @@
 #!/usr/bin/env python3
-"""The PPO sweep's table and figure from its results folder (bench/sweep_run.sh collect):
-prints one markdown table and writes DIR/sweep-curves.svg and .png (rsvg-convert), the
+"""The PPO sweep's table and figure from its results folders (bench/sweep_run.sh collect):
+prints one markdown table and writes OUT/sweep-curves.svg and .png (rsvg-convert), the
 learning curves in a grid, each with the original's published final, the random policy's
-return and the mean action's evaluation.
-Usage: bench/sweep_table.py DIR [--references configs/registry/references.yaml]"""
+return and the mean action's evaluation. With several folders (one per lease), a run of a later
+folder replaces the run of the same name in an earlier one.
+Usage: bench/sweep_table.py DIR [DIR...] [--out OUT (default: the last DIR)]
+                            [--references configs/registry/references.yaml]"""
 import argparse, json, os, shutil, subprocess, sys
 
 import yaml
@@ -27,6 +29,12 @@ def fmt(v, digits=1):
     return "" if v is None else f"{v:,.{digits}f}"
 
 
+def label(t):
+    """the task, and the task YAML when the run used one of bench/sweep/"""
+    c = t.get("task_config")
+    return t["task"] + (f" ({os.path.splitext(os.path.basename(c))[0]})" if c else "")
+
+
 def table(runs, random):
     head = ("| task | seed | slot-steps | wall | median slot-steps/s | training return, last 10M "
             "(without goal bonus) | mean action: return | success | length | faults | random | "
@@ -45,7 +53,7 @@ def table(runs, random):
             a = t["reached_at"]
             reached = f"{a['slot_steps'] / 1e6:.1f}M, {a['wall_s']:.0f} s" if a else "not reached"
         lines.append(
-            f"| {t['task']} | {t['seed']} | {t['slot_steps'] / 1e6:.1f}M | {t['wall_s']:.0f} s | "
+            f"| {label(t)} | {t['seed']} | {t['slot_steps'] / 1e6:.1f}M | {t['wall_s']:.0f} s | "
             f"{fmt(t['train_fps_median'], 0)} | {ret} | {fmt(e.get('return'))} | "
             f"{fmt(e.get('success'), 2)} | {fmt(e.get('length'), 0)} | "
             f"{'' if e.get('faults') is None else e['faults']} | {fmt(random.get(t['task']))} | "
@@ -53,7 +61,7 @@ def table(runs, random):
     return "\n".join(lines)
 
 
-def figure(d, runs, random, out):
+def figure(runs, random, out):
     tasks = list(dict.fromkeys(t["task"] for t in runs))
     cols = 5
     rows = (len(tasks) + cols - 1) // cols
@@ -67,7 +75,7 @@ def figure(d, runs, random, out):
     for i, task in enumerate(tasks):
         ox, oy = (i % cols) * PW, 30 + (i // cols) * PH
         mine = [t for t in runs if t["task"] == task]
-        curves = [(t, curve(os.path.join(d, t["run"], "metrics.csv"))) for t in mine]
+        curves = [(t, curve(os.path.join(t["dir"], t["run"], "metrics.csv"))) for t in mine]
         ys = [p[1] for _, c in curves for p in c] + [p[2] for _, c in curves for p in c]
         ys += [v for v in (random.get(task), mine[0]["original_ppo_final"]) if v is not None]
         ys += [t["eval"]["return"] for t in mine if t["eval"]]
@@ -122,13 +130,19 @@ def figure(d, runs, random, out):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("dir")
+    ap.add_argument("dirs", nargs="+", metavar="DIR")
+    ap.add_argument("--out")
     ap.add_argument("--references", default="configs/registry/references.yaml")
     a = ap.parse_args()
-    path = os.path.join(a.dir, "sweep.json")
-    if not os.path.exists(path):
-        sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
-    runs = json.load(open(path))["runs"]
+    byname = {}
+    for d in a.dirs:
+        path = os.path.join(d, "sweep.json")
+        if not os.path.exists(path):
+            sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
+        for t in json.load(open(path))["runs"]:
+            byname.pop(t["run"], None)  # a later lease's run replaces it
+            byname[t["run"]] = dict(t, dir=d)
+    runs = list(byname.values())
     if not os.path.exists(a.references):
         sys.exit(f"sweep_table: --references {a.references} not found (run from the repository "
                  "root, or name the file)")
@@ -136,7 +150,7 @@ def main():
     random = {k: value(v) for k, v in ((refs.get("random") or {}).get("values") or {}).items()}
     runs.sort(key=lambda t: (t["original_ppo_final"] is None, t["task"], t["seed"]))
     print(table(runs, random))
-    figure(a.dir, runs, random, os.path.join(a.dir, "sweep-curves"))
+    figure(runs, random, os.path.join(a.out or a.dirs[-1], "sweep-curves"))
 
 
 if __name__ == "__main__":
