@@ -37,9 +37,9 @@ def label(t):
 
 def table(runs, random):
     head = ("| task | seed | slot-steps | wall | median slot-steps/s | training return, last 10M "
-            "(without goal bonus) | mean action: return | success | length | faults | random | "
+            "(without goal bonus) | training success, last 10M | mean action: return | success | length | faults | random | "
             "original's final | first reached it at |")
-    lines = [head, "|" + "---|" * 13]
+    lines = [head, "|" + "---|" * 14]
     for t in runs:
         e = t["eval"] or {}
         ret = fmt(t["train_return_last_10M"])
@@ -54,7 +54,8 @@ def table(runs, random):
             reached = f"{a['slot_steps'] / 1e6:.1f}M, {a['wall_s']:.0f} s" if a else "not reached"
         lines.append(
             f"| {label(t)} | {t['seed']} | {t['slot_steps'] / 1e6:.1f}M | {t['wall_s']:.0f} s | "
-            f"{fmt(t['train_fps_median'], 0)} | {ret} | {fmt(e.get('return'))} | "
+            f"{fmt(t['train_fps_median'], 0)} | {ret} | "
+            f"{fmt(t.get('train_success_last_10M'), 2)} | {fmt(e.get('return'))} | "
             f"{fmt(e.get('success'), 2)} | {fmt(e.get('length'), 0)} | "
             f"{'' if e.get('faults') is None else e['faults']} | {fmt(random.get(t['task']))} | "
             f"{fmt(t['original_ppo_final'])} | {reached} |")
