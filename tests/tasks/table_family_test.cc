@@ -156,9 +156,9 @@ void check_terms(tasks::TaskEnv& env, const std::string& id, int s) {
   std::vector<double> terms;
   evaluate(env, s, terms);
   INFO("task " << id << ": sums " << sr << ", " << sl);
-  if (id == "pen") {
-    CHECK(term(env, terms, "reach_right") == Approx(std::exp(-10 * sr)).epsilon(1e-9));
-    CHECK(term(env, terms, "reach_left") == Approx(std::exp(-10 * sl)).epsilon(1e-9));
+  if (id == "pen") {  // the default: exp(-10 x the mean of the five distances)
+    CHECK(term(env, terms, "reach_right") == Approx(std::exp(-10 * sr / 5)).epsilon(1e-9));
+    CHECK(term(env, terms, "reach_left") == Approx(std::exp(-10 * sl / 5)).epsilon(1e-9));
   } else {
     CHECK(term(env, terms, "reach_right") == Approx(-sr).epsilon(1e-9));
     CHECK(term(env, terms, "reach_left") == Approx(-sl).epsilon(1e-9));
@@ -394,6 +394,37 @@ TEST_CASE("switch: the original's zero point by default, the paper's 1.4 as a va
     // 67.75 a step (the paper's) for the return to carry
     CHECK(on - off == Approx(50 * 0.044975).margin(1e-4));
     if (!paper) CHECK(std::abs(off) < 0.01);
+  }
+}
+
+TEST_CASE("pen: the paper's one distance a hand by default, the original's sums as a variant",
+          "[tasks][table][reward]") {
+  // reach = exp(-10 d): d the mean of the five fingertip points' distances (default, the paper's
+  // one distance a hand), or their sum (reward.variant original, the original code's). At the
+  // start the sums are about 1.1 m: the original's pays about 2e-5 a step, the default about
+  // 0.1 (README, "Reward")
+  TaskTempDir dir;
+  const auto original_file = edited_yaml(dir, "pen", {{"variant", "original"}});
+  for (const bool original : {false, true}) {
+    INFO((original ? "reward.variant original" : "default (paper)"));
+    auto env = make_env("pen", 1, 1, 1, original ? original_file : std::string());
+    const auto& tp = dynamic_cast<const tasks::TableTask&>(env->task()).params();
+    CHECK(tp.reward_variant == (original ? "original" : "paper"));
+    const mjData* d = env->batch().data(0);
+    auto [r, l] = points(*env, "pen", d);
+    const double sr = tip_sum(*env, d, 0, r), sl = tip_sum(*env, d, 1, l);
+    CHECK(sr == Approx(1.1).margin(0.15));
+    CHECK(sl == Approx(1.1).margin(0.15));
+    std::vector<double> terms;
+    evaluate(*env, 0, terms);
+    const double scale = original ? 10 : 2;
+    const double right = term(*env, terms, "reach_right"), left = term(*env, terms, "reach_left");
+    CHECK(right == Approx(std::exp(-scale * sr)).epsilon(1e-9));
+    CHECK(left == Approx(std::exp(-scale * sl)).epsilon(1e-9));
+    if (original) CHECK(right + left < 1e-4);
+    else CHECK(right + left > 0.1);
+    // the gate (both sums below 0.75 m) is shut at the start in both
+    CHECK(term(*env, terms, "separation") == 0);
   }
 }
 
