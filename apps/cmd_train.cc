@@ -569,7 +569,7 @@ void add_eval_command(CLI::App& app) {
   cmd->add_option("--episodes", o->episodes, "Episodes (one per parallel slot; per task for a suite)")
       ->check(CLI::Range(1, 100000))->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the evaluation episodes")->capture_default_str();
-  cmd->add_option("--threads", o->threads, "Threads (0: all cores)");
+  cmd->add_option("--threads", o->threads, "Threads of the simulation and of the policy (0: all cores)");
   cmd->add_option("--json", o->json, "Also write the result as JSON to this file");
   auto* split = cmd->add_option(
       "--split", o->split,
