@@ -245,7 +245,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     // random scores for four of the seven tasks with a ground truth
     reg.set_reference({"hand_over", "random", 2.0, "test"});            // ground truth 269
     reg.set_reference({"catch_abreast", "random", 3.4, "test"});        // 43.4
-    reg.set_reference({"scissors", "random", 1.835, "test"});           // 381.835
+    reg.set_reference({"scissors", "random", 1.835, "test"});           // 570.875
     reg.set_reference({"two_catch_underarm", "random", 0.1, "test"});   // 14.1
     auto task_run = [&](const std::string& task, double ret) {
       registry::RunRecord r;
@@ -258,9 +258,9 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     task_run("two_catch_underarm", 14.1);  // 1
     task_run("hand_over", 135.5);          // 0.5
     task_run("catch_abreast", 13.4);       // 0.25
-    task_run("scissors", 286.835);         // 0.75
+    task_run("scissors", 428.615);         // 0.75
     task_run("catch_underarm", 10);        // no random score
-    task_run("pen", 5);                    // no reference at all
+    task_run("pen", 5);                    // no random score
     registry::RunRecord s;
     s.algo = "mtppo";
     s.suite = "MT4";
@@ -279,11 +279,11 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   // task, age, difficulty, run, return, random, ground truth, normalised (by hand)
   CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "7", "269", "2", "269", "1.000"}));
   CHECK(has_row(r.out, {"catch_abreast", "9-10", "easy", "3", "13.4", "3.4", "43.4", "0.250"}));
-  CHECK(has_row(r.out, {"scissors", "7", "easy", "4", "286.8", "1.835", "381.8", "0.750"}));
+  CHECK(has_row(r.out, {"scissors", "7", "easy", "4", "428.6", "1.835", "570.9", "0.750"}));
   CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "7", "7.1", "0.1", "14.1",
                         "0.500"}));
   CHECK(has_row(r.out, {"catch_underarm", "48", "hard", "7", "3", "-", "17.8", "-"}));
-  CHECK(has_row(r.out, {"pen", "7", "easy", "6", "5", "-", "-", "-"}));
+  CHECK(has_row(r.out, {"pen", "7", "easy", "6", "5", "-", "413.1", "-"}));
   CHECK(has_row(r.out, {"lift_underarm", "12", "easy", "-", "-", "-", "1342", "-"}));
   CHECK(has_row(r.out, {"door_open_outward", "13", "easy", "-", "-", "-", "580", "-"}));
   CHECK(has_text(r.out, "left out of the plot (no normalised score): push_block, pen, "

@@ -40,8 +40,8 @@ const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"hand_over", 269.0},         {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
     {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_inward", 467},
     {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
-    {"lift_underarm", 1341.65},   {"scissors", 381.835},         {"bottle_cap", 493.569},
-    {"push_block", 602.088},      {"switch", 452.254}};
+    {"lift_underarm", 1341.65},   {"scissors", 570.875},         {"bottle_cap", 493.569},
+    {"push_block", 602.088},      {"switch", 452.254},           {"pen", 413.094}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
@@ -131,12 +131,14 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
       else
         CHECK(r->source.rfind("bidex PPO on the GPU path, ", 0) == 0);
     }
-    CHECK(reg.reference("scissors", "ground_truth")->source.find(
+    CHECK(reg.reference("lift_underarm", "ground_truth")->source.find(
               "gpu-references-h100/references-ml20-test.json") != std::string::npos);
+    CHECK(reg.reference("scissors", "ground_truth")->source.find(
+              "sweep-h100x4/lease2/scissors/eval.json") != std::string::npos);
     CHECK(reg.reference("switch", "ground_truth")->source.find(
               "sweep-h100x4/switch/eval.json") != std::string::npos);
     // the tasks the sweep has not yet run to 50M slot-steps
-    for (const char* task : {"pen", "swing_cup", "re_orientation", "block_stack", "pour_water",
+    for (const char* task : {"swing_cup", "re_orientation", "block_stack", "pour_water",
                              "grasp_and_place"})
       CHECK_FALSE(reg.reference(task, "ground_truth"));
     // every paper task has a random score with its source (spot values from references.yaml)
@@ -180,7 +182,9 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
-  CHECK(raw.value("SELECT count(*) FROM reference_scores") == "34");  // 14 ground truths, 20 random
+  // the shipped ground truths and 20 random scores
+  CHECK(raw.value("SELECT count(*) FROM reference_scores") ==
+        std::to_string(kGroundTruth.size() + 20));
   CHECK(raw.value("SELECT count(*) FROM suites") ==
         std::to_string(taskpack::known_suites().size()));
   CHECK(raw.value("SELECT count(*) FROM suite_members WHERE suite = 'ML20'") == "20");
@@ -196,7 +200,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   }
   Registry reg(path);
   CHECK(reg.tasks(false).size() == 20);
-  CHECK(reg.references().size() == 34);
+  CHECK(reg.references().size() == kGroundTruth.size() + 20);
   CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
   CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
   CHECK(reg.reference("hand_over", "random")->value == 0.5);
@@ -524,7 +528,8 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
     CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(269.0));
-    CHECK(reg.references().size() == 2 + 14 + 19);  // the shipped ground truths and 19 random
+    // the shipped ground truths and 19 random
+    CHECK(reg.references().size() == 2 + kGroundTruth.size() + 19);
     // the new tables work, also for the old runs
     registry::RunRecord done = runs[1];
     done.status = "finished";
