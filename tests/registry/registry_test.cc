@@ -152,6 +152,9 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.reference("switch", "random")->value == Approx(86.605));  // version 2
     CHECK(reg.reference("switch", "random")->source.find(
               "random-references-issue36-2core.json") != std::string::npos);
+    CHECK(reg.reference("pen", "random")->value == Approx(23.9298));  // version 2
+    CHECK(reg.reference("pen", "random")->source.find("random-references-pen-v2-2core.json") !=
+          std::string::npos);
 
     // the suites of configs/suites (the paper's six and the goal distributions), with their
     // members and reward scales
