@@ -54,7 +54,7 @@ lane() {
   local gpu=$1 deadline=$2
   shift 2
   export CUDA_VISIBLE_DEVICES=$gpu
-  local spec task seed msteps cfg part dir log left
+  local spec task seed msteps cfg part p dir log left
   evaluate() {  # evaluate RUN
     local log="$out/${1//\//-}"
     local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 8

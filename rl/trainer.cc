@@ -760,7 +760,7 @@ void LoadedPolicy::check_fits(const taskpack::Pack& pack, const std::string& wha
 
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
   // the policy's CPU threads as many as the simulation's: LibTorch's default (every core) beside
-  // other processes ran 256 episodes of pen at about 180 world-steps/s on the sweep's machine
+  // other processes ran 256 episodes of pen at about 170 world-steps/s on the sweep's machine
   if (threads > 0) torch::set_num_threads(threads);
   const auto& c = policy.config();
   return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
