@@ -596,6 +596,7 @@ void add_eval_command(CLI::App& app) {
     rl::EvalResult r;
     std::string what, checkpoint, target;
     int64_t update = 0;
+    rl::set_policy_threads(o->threads);  // --threads: the policy's as the simulation's
     // what is evaluated: a baseline policy (--random, --zero) on a task or suite, or a run's
     const std::string policy = o->random ? "random" : o->zero ? "zero" : "checkpoint";
     if (policy != "checkpoint") {

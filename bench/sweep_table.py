@@ -141,8 +141,7 @@ def main():
         if not os.path.exists(path):
             sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
         for t in json.load(open(path))["runs"]:
-            byname.pop(t["run"], None)  # a later lease's run replaces it
-            byname[t["run"]] = dict(t, dir=d)
+            byname[t["run"]] = dict(t, dir=d)  # a later lease's run replaces it
     runs = list(byname.values())
     if not os.path.exists(a.references):
         sys.exit(f"sweep_table: --references {a.references} not found (run from the repository "

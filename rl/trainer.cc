@@ -758,10 +758,11 @@ void LoadedPolicy::check_fits(const taskpack::Pack& pack, const std::string& wha
                 std::to_string(pack.obs_dim()) + " and " + std::to_string(pack.act_dim()));
 }
 
-EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
-  // the policy's CPU threads as many as the simulation's: LibTorch's default (every core) beside
-  // other processes ran 256 episodes of pen at about 170 world-steps/s on the sweep's machine
+void set_policy_threads(int threads) {
   if (threads > 0) torch::set_num_threads(threads);
+}
+
+EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
   const auto& c = policy.config();
   return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
     policy.check_fits(env, c.target() + " now");

@@ -139,6 +139,11 @@ class LoadedPolicy {
   std::unique_ptr<Impl> impl_;
 };
 
+// LibTorch's CPU threads (process-wide; 0 keeps its default, every core). bidex eval --threads
+// sets them with the simulation's: at the default beside other processes, the sweep's
+// evaluations ran at about 170 world-steps/s (bench/results/sweep-h100x4/README.md).
+void set_policy_threads(int threads);
+
 struct EvalResult {
   int episodes = 0;
   // a task run: over its episodes; a suite run: the mean over the suite's tasks of theirs
