@@ -4,9 +4,11 @@
 #   bench/sweep_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
-#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME]: seed (0 by default),
-#       slot-steps in millions (default $SWEEP_STEPS) and a task YAML bench/sweep/NAME.yaml in
-#       place of the task's default (env.task_config; the file says why). Each lane runs
+#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME]: seed (0 by
+#       default), slot-steps in millions (default $SWEEP_STEPS), a task YAML bench/sweep/NAME.yaml
+#       in place of the task's default (env.task_config) and training overrides
+#       bench/sweep/NAME.overrides (KEY=VALUE lines, each given as -o after the sweep's own; the
+#       files say why). Each lane runs
 #       in its own process session (it outlives the device call), its runs one after the other
 #       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
 #       minibatches (the task's section of configs/train/ppo.yaml applies) to $SWEEP_STEPS
@@ -54,7 +56,7 @@ lane() {
   local gpu=$1 deadline=$2
   shift 2
   export CUDA_VISIBLE_DEVICES=$gpu
-  local spec task seed msteps cfg part p dir log left
+  local spec task seed msteps cfg part p dir log left line
   evaluate() {  # evaluate RUN
     local log="$out/${1//\//-}"
     local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 8
@@ -69,8 +71,14 @@ lane() {
       case $p in
         s*) seed=${p#s} ;;
         m*) msteps=$((${p#m} * 1000000)) ;;
-        c*) cfg=(-o env.task_config="bench/sweep/${p#c}.yaml") ;;
-        *) echo "$spec: unknown part $p (sSEED, mMILLIONS or cNAME)" >>"$out/lanes.log"; continue 2 ;;
+        c*) cfg+=(-o env.task_config="bench/sweep/${p#c}.yaml") ;;
+        o*) [[ -f bench/sweep/${p#o}.overrides ]] ||
+              { echo "$spec: no file bench/sweep/${p#o}.overrides" >>"$out/lanes.log"; continue 2; }
+            while read -r line; do
+              read -r line <<<"${line%%#*}"  # without its comment and surrounding blanks
+              [[ -z $line ]] || cfg+=(-o "$line")
+            done <"bench/sweep/${p#o}.overrides" ;;
+        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, cNAME or oNAME)" >>"$out/lanes.log"; continue 2 ;;
       esac
     done
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"

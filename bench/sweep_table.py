@@ -30,9 +30,10 @@ def fmt(v, digits=1):
 
 
 def label(t):
-    """the task, and the task YAML when the run used one of bench/sweep/"""
-    c = t.get("task_config")
-    return t["task"] + (f" ({os.path.splitext(os.path.basename(c))[0]})" if c else "")
+    """the task, and the task YAML and training overrides of bench/sweep/ that the run used"""
+    files = [t.get(k) for k in ("task_config", "overrides") if t.get(k)]
+    names = ", ".join(os.path.splitext(os.path.basename(f))[0] for f in files)
+    return t["task"] + (f" ({names})" if names else "")
 
 
 def table(runs, random):
