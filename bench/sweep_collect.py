@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
 """Summarises the PPO sweep's runs (bench/sweep_run.sh collect): per run OUTDIR/RUN/time_to_target.json
 and one OUTDIR/sweep.json.
-Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK[/sSEED][/mMILLIONS][/cNAME], bench/sweep_run.sh)
-       bench/sweep_collect.py --rising METRICS_CSV   (exit 0: the run still rises)"""
+Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME], bench/sweep_run.sh)
+       bench/sweep_collect.py --rising METRICS_CSV   (exit 0: the run still rises)
+       bench/sweep_collect.py --refresh OUTDIR   (OUTDIR/sweep.json summarised again from its runs'
+           committed files by today's rules, keeping its machine, commit and date)"""
 import csv, datetime, json, os, sys
 
 # The original's published PPO finals: the last row of its 10-seed learning curves, about 1e8
@@ -23,9 +25,15 @@ def num(r, key):
     return float(v) if v not in ("", None) else None
 
 
-def mean(v):
-    v = [x for x in v if x is not None]
-    return sum(v) / len(v) if v else None
+def weighted(pairs):
+    """The mean of (value, weight) pairs without a value, None when no weight is left."""
+    pairs = [(x, w) for x, w in pairs if x is not None and w > 0]
+    total = sum(w for _, w in pairs)
+    return sum(x * w for x, w in pairs) / total if total else None
+
+
+def episodes(r):
+    return float(r.get("episodes") or 0)
 
 
 def comparable(r):
@@ -37,7 +45,26 @@ def comparable(r):
 
 
 def window(rows, lo, hi, f):
-    return mean(f(r) for r in rows if lo < float(r["steps"]) <= hi)
+    """The mean of f over the episodes that ended in (lo, hi] slot-steps: each update's mean
+    weighted by its episodes. Tasks whose worlds end their episodes together (fixed lengths, no
+    reset noise) have one update with thousands of episodes and many with a few; a plain mean
+    over updates would count each of those few the same."""
+    return weighted((f(r), episodes(r)) for r in rows if lo < float(r["steps"]) <= hi)
+
+
+RECENT_EPISODES = 100  # the original's logged return: the mean of its last 100 episodes
+
+
+def recent(rows, i, f):
+    """The mean of f over the last RECENT_EPISODES episodes ended by update i (whole updates,
+    newest first, until they hold that many), as the original's learning curves log it."""
+    pairs, n = [], 0.0
+    for r in reversed(rows[:i + 1]):
+        pairs.append((f(r), episodes(r)))
+        n += episodes(r)
+        if n >= RECENT_EPISODES:
+            break
+    return weighted(pairs) if n >= RECENT_EPISODES else None
 
 
 def rows_of(path):
@@ -65,18 +92,21 @@ def summarise(outdir, spec):
     task, *parts = spec.split("/")
     seed = next((p[1:] for p in parts if p.startswith("s")), "0")
     config = next((p[1:] for p in parts if p.startswith("c")), None)
+    overrides = next((p[1:] for p in parts if p.startswith("o")), None)
     name = spec.replace("/", "-")
     d = os.path.join(outdir, name)
     rows = rows_of(f"{d}/metrics.csv")
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)
-    hit = next((r for r in rows if comparable(r) >= target), None) if target else None
+    hit = next((r for i, r in enumerate(rows) if (recent(rows, i, comparable) or -1e300) >= target),
+               None) if target else None
     fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
     commands = open(f"{d}/commands.txt").read().splitlines() if os.path.exists(f"{d}/commands.txt") else []
     t = {
         "task": task, "seed": int(seed), "run": name,
         "task_config": None if config is None else f"bench/sweep/{config}.yaml",
+        "overrides": None if overrides is None else f"bench/sweep/{overrides}.overrides",
         "commands": commands,
         "slot_steps": int(end), "wall_s": float(rows[-1]["wall_s"]) if rows else 0.0,
         "finished": bool(summary and summary.get("finished")),
@@ -89,7 +119,7 @@ def summarise(outdir, spec):
         "reached_original": hit is not None,
         "reached_at": None if hit is None else {
             "wall_s": float(hit["wall_s"]), "slot_steps": int(float(hit["steps"])),
-            "return_no_bonus": comparable(hit)},
+            "return_no_bonus": recent(rows, rows.index(hit), comparable)},
         "eval": None if ev is None else {
             "update": ev.get("update"), "episodes": ev["episodes"],
             "return": ev["mean_return"], "std": ev["std_return"],
@@ -105,16 +135,32 @@ def summarise(outdir, spec):
 def main():
     if len(sys.argv) == 3 and sys.argv[1] == "--rising":  # bench/sweep_run.sh's extensions
         sys.exit(0 if rising(rows_of(sys.argv[2])) else 1)
+    if len(sys.argv) == 3 and sys.argv[1] == "--refresh":
+        outdir = sys.argv[2]
+        old = load(os.path.join(outdir, "sweep.json"))
+        if old is None:
+            sys.exit(f"{outdir}/sweep.json: no such file (--refresh re-summarises a collected sweep)")
+        specs = open(os.path.join(outdir, "lanes")).read().split()
+        write(outdir, old["machine"], old["commit"], old["date"], specs,
+              datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"))
+        return
     if len(sys.argv) < 5:
         sys.exit(__doc__)
     outdir, machine, commit, specs = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4:]
+    write(outdir, machine, commit,
+          datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"), specs)
+
+
+def write(outdir, machine, commit, date, specs, refreshed=None):
+    """OUTDIR/sweep.json (atomically) and a line per run on stdout"""
     out = {
         "what": "PPO at the paper's settings (16,384 slots, 16 minibatches) on every task on the "
                 "GPU path; each final policy's mean action evaluated over 256 episodes on the CPU "
-                "path; the wall time and slot-steps at which the mean training return (without "
-                "bidex's goal bonus) first reached the original's published PPO final",
-        "machine": machine, "commit": commit,
-        "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+                "path; training returns and success as means over episodes; the wall time and "
+                "slot-steps at which the mean training return (without bidex's goal bonus) of the "
+                "last 100 episodes first reached the original's published PPO final",
+        "machine": machine, "commit": commit, "date": date,
+        **({"summarised_again": refreshed} if refreshed else {}),
         "runs": [summarise(outdir, s) for s in specs],
     }
     tmp = os.path.join(outdir, "sweep.json.tmp")
