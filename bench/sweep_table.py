@@ -14,6 +14,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep_collect import comparable, rows_of  # noqa: E402  (the one definition of both)
 
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"]
+ORIGINAL_CURVES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "sweep",
+                               "original_ppo_curves.json")
 
 
 def value(v):
@@ -71,9 +73,11 @@ def figure(runs, random, out):
     W, H = cols * PW, rows * PH + 40
     svg = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{W}" height="{H}" '
            f'font-family="sans-serif" font-size="10">', f'<rect width="{W}" height="{H}" fill="white"/>',
-           f'<text x="{W / 2}" y="18" text-anchor="middle" font-size="13">PPO on every task: mean '
-           f'training return against slot-steps (dashed: the original\'s final; dotted: random; '
-           f'dot: the mean action\'s evaluation; light: without the goal bonus)</text>']
+           f'<text x="{W / 2}" y="18" text-anchor="middle" font-size="12">PPO on every task: training '
+           f'return against slot-steps. Grey: the original\'s 10-seed mean; dashed: its final; '
+           f'dotted: random; dot: the mean action\'s evaluation; light: without the goal bonus'
+           f'</text>']
+    original = json.load(open(ORIGINAL_CURVES))["tasks"]
     for i, task in enumerate(tasks):
         ox, oy = (i % cols) * PW, 30 + (i // cols) * PH
         mine = [t for t in runs if t["task"] == task]
@@ -82,6 +86,8 @@ def figure(runs, random, out):
         ys += [v for v in (random.get(task), mine[0]["original_ppo_final"]) if v is not None]
         ys += [t["eval"]["return"] for t in mine if t["eval"]]
         xmax = max([p[0] for _, c in curves for p in c] + [5e7])
+        orig = [(m * 1e6, v) for m, v in original.get(task, {}).get("points", []) if m * 1e6 <= xmax]
+        ys += [v for _, v in orig]
         ymin, ymax = min(ys + [0]), max(ys + [1])
         ymax += 0.05 * (ymax - ymin)
         X = lambda s: ox + L + (PW - L - R) * s / xmax
@@ -100,6 +106,9 @@ def figure(runs, random, out):
             if v is not None:
                 svg.append(f'<line x1="{ox + L}" x2="{ox + PW - R}" y1="{Y(v):.1f}" y2="{Y(v):.1f}" '
                            f'stroke="#555" stroke-dasharray="{dash}"/>')
+        if orig:
+            pts = " ".join(f"{X(s):.1f},{Y(v):.1f}" for s, v in orig)
+            svg.append(f'<polyline points="{pts}" fill="none" stroke="#999" stroke-width="2.5"/>')
         for j, (t, c) in enumerate(curves):
             color = COLORS[j % len(COLORS)]
             if not c:
