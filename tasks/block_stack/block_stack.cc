@@ -1,11 +1,14 @@
 // block_stack: the spec, the YAML, the scene and the host half of BlockStack (block_stack.h).
 #include <cmath>
+#include <string>
+#include <vector>
 
 #include <mujoco/mujoco.h>
 
 #include "core/error.h"
 #include "core/yaml.h"
 #include "tasks/block_stack/block_stack.h"
+#include "tasks/config_fields.h"
 #include "tasks/math.h"
 #include "tasks/registry.h"
 
@@ -21,16 +24,23 @@ BlockStackParams load(const std::string& file) {
   p.table = manip::load_table(root.child("table"));
   p.blocks = manip::load_block_pair(root.child("blocks"), "target");
   {
-    auto r = root.child("reward");
-    r.allow_keys({"offset", "goal_scale", "goal_offset", "goal_gate", "stack_bonus_scale",
-                  "stack_tolerance", "height_tolerance"});
-    p.offset = read_number(r, "offset", -100, 100, "an offset in [-100, 100]");
-    p.goal_scale = read_number(r, "goal_scale", 0, 1000, "a scale in [0, 1000]");
-    p.goal_offset = read_number(r, "goal_offset", -10, 10, "a distance in [-10, 10] m");
-    p.goal_gate = read_number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
-    p.stack_bonus_scale = read_number(r, "stack_bonus_scale", 0, 1e4, "a scale in [0, 1e4]");
-    p.stack_tolerance = read_number(r, "stack_tolerance", 0, 1, "a distance in [0, 1] m");
-    p.height_tolerance = read_number(r, "height_tolerance", 0, 1, "a distance in [0, 1] m");
+    const auto rv = read_reward_variants(root.child("reward"));
+    auto read = [&](const YamlView& r, BlockStackParams& q) {
+      std::vector<std::string> keys = {"offset",          "goal_scale",       "goal_offset",
+                                       "goal_gate",       "stack_bonus_scale", "stack_tolerance",
+                                       "height_tolerance"};
+      keys.insert(keys.end(), rv.extra.begin(), rv.extra.end());
+      r.allow_keys(keys);
+      q.offset = read_number(r, "offset", -100, 100, "an offset in [-100, 100]");
+      q.goal_scale = read_number(r, "goal_scale", 0, 1000, "a scale in [0, 1000]");
+      q.goal_offset = read_number(r, "goal_offset", -10, 10, "a distance in [-10, 10] m");
+      q.goal_gate =
+          read_number(r, "goal_gate", 0, 100, "a fingertip distance sum in [0, 100] m (0: off)");
+      q.stack_bonus_scale = read_number(r, "stack_bonus_scale", 0, 1e4, "a scale in [0, 1e4]");
+      q.stack_tolerance = read_number(r, "stack_tolerance", 0, 1, "a distance in [0, 1] m");
+      q.height_tolerance = read_number(r, "height_tolerance", 0, 1, "a distance in [0, 1] m");
+    };
+    read_chosen_variant(rv, p, read);
   }
   {
     auto t = root.child("termination");
@@ -45,6 +55,7 @@ TaskSpec make_spec() {
   TaskSpec s = manip::spec_with_hands(
       "block_stack", "Stack Block", "ShadowHandBlockStack", HumanAge{22, 28, "22-28", false},
       Difficulty::kMedium, "Stacks at least 2 blocks in any trial.", 250);
+  s.version = 2;  // v2: the original code's reward by default (README, "Reward")
   add_object_obs(s.obs, "block1", "block 1 (the left hand's, the top one)");
   add_goal_obs(s.obs, "goal", "block 1's target, on top of block 2's target");
   s.obs.add("block1.pos", 3, "block 1 position (m), as the paper's table repeats it");
@@ -54,9 +65,11 @@ TaskSpec make_spec() {
       {"offset", "reward.offset (the paper's 1.5)"},
       {"left_hand", "-d_left: sum of the left fingertips' distances to block 1 (m)"},
       {"right_hand", "-d_right: sum of the right fingertips' distances to block 2 (m)"},
-      {"goal", "goal_scale (goal_offset - d_target), d_target = |b1 - t1| + |b2 - t2| (m)"},
+      {"goal", "goal_scale (goal_offset - d_target), d_target = |b1 - t1| + |b2 - t2| (m), "
+               "while both hands' sums are below reward.goal_gate (0: always)"},
       {"stack_bonus", "stack_bonus_scale (0.05 - |z(t1) - z(b1)|) while both blocks are within "
-                      "stack_tolerance of their targets (0 by default: not in the paper)"},
+                      "stack_tolerance of their targets (the original's 50; 0 in the paper's "
+                      "formula)"},
   };
   return s;
 }

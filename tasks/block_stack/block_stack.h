@@ -3,6 +3,8 @@
 // the right hand's block 2.
 #pragma once
 
+#include <string>
+
 #include "tasks/block_stack/block_stack_body.h"
 #include "tasks/manipulation_family.h"
 #include "tasks/body_task.h"
@@ -13,7 +15,9 @@ struct BlockStackParams {
   manip::CommonParams common;
   manip::TableParams table;
   manip::BlockPair blocks;  // block1 (left hand's, on top), block2 (right hand's); place = targets
-  // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target) [+ stack bonus]
+  // reward: offset - d_left - d_right + goal_scale (goal_offset - d_target) [+ stack bonus];
+  // the variant read ("original", "paper"; tasks/README.md, "Reward variants")
+  std::string reward_variant;
   double offset = 1.5, goal_scale = 2, goal_offset = 0.24;
   double goal_gate = 0;               // > 0: the goal term only while both hands' sums < it
   double stack_bonus_scale = 0;       // the original's 50 (0: the paper's formula)
@@ -30,6 +34,7 @@ class BlockStack : public BodyTask<manip::ManipTask, BlockStackBodies> {
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
+  const BlockStackParams& params() const { return p_; }
 
  private:
   BlockStackParams p_;

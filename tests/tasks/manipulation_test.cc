@@ -14,6 +14,7 @@
 #include <catch2/catch.hpp>
 #include <mujoco/mujoco.h>
 
+#include "tasks/block_stack/block_stack.h"
 #include "tasks/bottle_cap/bottle_cap.h"
 #include "tests/tasks/task_fixture.h"
 
@@ -412,8 +413,12 @@ TEST_CASE("push_block terms: 2 - d_left - d_right + 5 (0.8 - d_target), each blo
   CHECK_FALSE(env->slot_state(0).success);
 }
 
-TEST_CASE("block_stack terms: 1.5 - d_left - d_right + 2 (0.24 - d_target)", "[tasks][manip][reward]") {
-  auto env = make_env("block_stack", 1, 3);
+TEST_CASE("block_stack terms, reward.variant paper: 1.5 - d_left - d_right + 2 (0.24 - d_target)",
+          "[tasks][manip][reward]") {
+  TaskTempDir pdir;
+  auto env =
+      make_env("block_stack", 1, 3, 0, edited_yaml(pdir, "block_stack", {{"variant", "paper"}}));
+  CHECK(dynamic_cast<const tasks::BlockStack&>(env->task()).params().reward_variant == "paper");
   const Vec t1{0, 0, 0.675}, t2{0, 0, 0.625};
   move_to(*env, 0, "block1", plus(t1, {0.02, 0, 0}));
   move_to(*env, 0, "block2", plus(t2, {0, -0.03, 0}));
@@ -424,25 +429,91 @@ TEST_CASE("block_stack terms: 1.5 - d_left - d_right + 2 (0.24 - d_target)", "[t
   const double sr = tip_sum(*env, 0, "rh_", xpos(*env, 0, "block2"));
   CHECK(ended == (sl >= 0.75 || sr >= 0.75));
   CHECK(t[term(*env, "offset")] == 1.5);
+  // no gate: paid with the hands at their mounts
   CHECK(t[term(*env, "goal")] == Approx(2 * (0.24 - 0.05)).epsilon(1e-9));  // 0.38
-  CHECK(t[term(*env, "left_hand")] ==
-        Approx(-tip_sum(*env, 0, "lh_", xpos(*env, 0, "block1"))).epsilon(1e-9));
-  CHECK(t[term(*env, "right_hand")] ==
-        Approx(-tip_sum(*env, 0, "rh_", xpos(*env, 0, "block2"))).epsilon(1e-9));
-  CHECK(t[term(*env, "stack_bonus")] == 0);  // the paper's formula by default
+  CHECK(t[term(*env, "left_hand")] == Approx(-sl).epsilon(1e-9));
+  CHECK(t[term(*env, "right_hand")] == Approx(-sr).epsilon(1e-9));
+  CHECK(t[term(*env, "stack_bonus")] == 0);  // not in the paper's formula
   CHECK(env->slot_state(0).success);         // both within 0.07, dz = 0 < 0.03
+}
 
-  // the original's stack bonus and gate, switched on in the YAML
+TEST_CASE("block_stack: the original's gate and stack term by default, the paper's formula as a "
+          "variant", "[tasks][manip][reward]") {
+  // r = 1.5 - S_L - S_R + u + s (upstream.md 6.16): u = 2 (0.24 - |b1 - t1| - |b2 - t2|) while
+  // both fingertip sums S are below 0.5 m, s = 50 (0.05 - |z(t1) - z(b1)|) while both blocks are
+  // within 0.07 m of their targets (default, version 2); reward.variant paper: u always, no s.
+  // Block 1 1 cm above t1 and 2 cm aside (|b1 - t1| = sqrt(5) cm), block 2 3 cm aside of t2.
+  const Vec t1{0, 0, 0.675}, t2{0, 0, 0.625};
+  const double e = std::sqrt(0.02 * 0.02 + 0.01 * 0.01) + 0.03;  // 0.05236
   TaskTempDir dir;
-  auto f = edited_yaml(dir, "block_stack", {{"stack_bonus_scale", "50"}, {"goal_gate", "0.5"}});
-  auto env2 = make_env("block_stack", 1, 3, 0, f);
-  move_to(*env2, 0, "block1", plus(t1, {0, 0, 0.01}));
-  move_to(*env2, 0, "block2", t2);
-  sync(*env2, 0);
-  evaluate(*env2, 0, t);
-  CHECK(t[term(*env2, "stack_bonus")] == Approx(50 * (0.05 - 0.01)).epsilon(1e-9));  // 2
-  // hands far from their blocks (start sums > 0.5): the gated goal term pays nothing
-  CHECK(t[term(*env2, "goal")] == 0);
+  const auto paper_file = edited_yaml(dir, "block_stack", {{"variant", "paper"}});
+  for (const bool paper : {false, true}) {
+    INFO((paper ? "reward.variant paper" : "default (original)"));
+    auto env = make_env("block_stack", 1, 3, 0, paper ? paper_file : std::string());
+    CHECK(dynamic_cast<const tasks::BlockStack&>(env->task()).params().reward_variant ==
+          (paper ? "paper" : "original"));
+    auto place = [&] {
+      move_to(*env, 0, "block1", plus(t1, {0.02, 0, 0.01}));
+      move_to(*env, 0, "block2", plus(t2, {0, -0.03, 0}));
+      sync(*env, 0);
+    };
+    place();
+    std::vector<double> t;
+    evaluate(*env, 0, t);
+    // hands at their mounts: both sums above 0.5, the original's gate shut
+    const double sl = tip_sum(*env, 0, "lh_", xpos(*env, 0, "block1"));
+    const double sr = tip_sum(*env, 0, "rh_", xpos(*env, 0, "block2"));
+    CHECK(sl > 0.5);
+    CHECK(sr > 0.5);
+    CHECK(t[term(*env, "offset")] == 1.5);
+    CHECK(t[term(*env, "left_hand")] == Approx(-sl).epsilon(1e-9));
+    CHECK(t[term(*env, "right_hand")] == Approx(-sr).epsilon(1e-9));
+    CHECK(t[term(*env, "goal")] == (paper ? Approx(2 * (0.24 - e)).epsilon(1e-9) : Approx(0)));
+    CHECK(t[term(*env, "stack_bonus")] ==
+          (paper ? Approx(0) : Approx(50 * (0.05 - 0.01)).epsilon(1e-9)));  // 2
+    CHECK(env->slot_state(0).success);  // both within 0.07, dz 0.01 < 0.03
+
+    // each hand's fingertips brought to its block (the base shifted by the difference of the
+    // block and the tips' centroid): both sums below 0.5, the gate open in both variants
+    mjData* d = env->batch().data(0);
+    for (int h = 0; h < 2; ++h) {
+      const std::string pre = h == 0 ? "rh_" : "lh_";
+      const double* b = xpos(*env, 0, h == 0 ? "block2" : "block1");
+      Vec c{};
+      for (const char* tip : {"ffdistal", "mfdistal", "rfdistal", "lfdistal", "thdistal"}) {
+        const Vec q = local_point(*env, 0, pre + tip, {0, 0, 0.02});
+        for (int k = 0; k < 3; ++k) c[k] += q[k] / 5;
+      }
+      const Vec want{b[0], b[1], b[2]};
+      const auto& hi = env->model().hands()[h];
+      for (int k = 0; k < 3; ++k) d->qpos[hi.base_qpos_adr + k] += want[k] - c[k];
+    }
+    place();  // the blocks back where they were, at rest
+    evaluate(*env, 0, t);
+    const double sl_at = tip_sum(*env, 0, "lh_", xpos(*env, 0, "block1"));
+    const double sr_at = tip_sum(*env, 0, "rh_", xpos(*env, 0, "block2"));
+    INFO("fingertip sums at the blocks: left " << sl_at << ", right " << sr_at);
+    REQUIRE(sl_at < 0.5);
+    REQUIRE(sr_at < 0.5);
+    CHECK(t[term(*env, "left_hand")] == Approx(-sl_at).epsilon(1e-9));
+    CHECK(t[term(*env, "right_hand")] == Approx(-sr_at).epsilon(1e-9));
+    CHECK(t[term(*env, "goal")] == Approx(2 * (0.24 - e)).epsilon(1e-9));  // 0.375
+    CHECK(t[term(*env, "stack_bonus")] ==
+          (paper ? Approx(0) : Approx(50 * (0.05 - 0.01)).epsilon(1e-9)));
+
+    // block 2 8 cm from its target: not placed, no stack term in either
+    move_to(*env, 0, "block2", plus(t2, {0, -0.08, 0}));
+    sync(*env, 0);
+    evaluate(*env, 0, t);
+    CHECK(t[term(*env, "stack_bonus")] == 0);
+    // the stack term goes below 0 with block 1 more than 5 cm off t1's height (both placed)
+    move_to(*env, 0, "block2", t2);
+    move_to(*env, 0, "block1", plus(t1, {0, 0, -0.06}));
+    sync(*env, 0);
+    evaluate(*env, 0, t);
+    CHECK(t[term(*env, "stack_bonus")] ==
+          (paper ? Approx(0) : Approx(50 * (0.05 - 0.06)).epsilon(1e-9)));  // -0.5
+  }
 }
 
 TEST_CASE("grasp_and_place terms: exp(-10 d_right) + exp(-10 d_left) + 2 exp(-10 |k - c|)",
@@ -557,7 +628,20 @@ TEST_CASE("oracle: block_stack succeeds with block 1 on block 2, not the other w
   sync(*env, 0);
   evaluate(*env, 0, t);
   CHECK(env->slot_state(0).success);
-  CHECK(t[term(*env, "goal")] == Approx(2 * 0.24).epsilon(1e-9));
+  CHECK(t[term(*env, "stack_bonus")] == Approx(50 * 0.05).epsilon(1e-9));  // the term's best
+  // the goal term at its best with the gate opened (the hands at their mounts shut it)
+  CHECK(t[term(*env, "goal")] == 0);
+  {
+    TaskTempDir gdir;
+    auto env3 = make_env("block_stack", 1, 3, 0,
+                         edited_yaml(gdir, "block_stack", {{"goal_gate", "0"}}));
+    move_to(*env3, 0, "block2", {0, 0, 0.625});
+    move_to(*env3, 0, "block1", {0, 0, 0.675});
+    sync(*env3, 0);
+    evaluate(*env3, 0, t);
+    CHECK(env3->slot_state(0).success);
+    CHECK(t[term(*env3, "goal")] == Approx(2 * 0.24).epsilon(1e-9));
+  }
   // and the stack stands: 30 steps later block 1 still sits on block 2 (hands held still at
   // their mounts, where the left fingertips' sum to t1, 0.77 m, would end the episode: the
   // termination is switched off for this)
@@ -801,6 +885,14 @@ TEST_CASE("manipulation tasks: bad YAML is a ConfigError naming file, key, expec
        "reward.dist_scale", "a scale <= 0", "10"},
       {"block_stack", [](std::string t) { return set_value(t, "stack_bonus_scale", "-1"); },
        "reward.stack_bonus_scale", "a scale in [0, 1e4]", "-1"},
+      {"block_stack", [](std::string t) { return set_value(t, "variant", "printed"); },
+       "reward.variant", "'original' or 'paper'", "printed"},
+      {"block_stack",
+       [](std::string t) { return set_value(t, "paper", "{goal_gate: 0, bonus_scale: 0}"); },
+       "reward.paper.bonus_scale", "a key of 'reward'", "'bonus_scale'"},
+      {"block_stack",
+       [](std::string t) { return set_value(t, "paper", "{goal_gate: -1, stack_bonus_scale: 0}"); },
+       "reward.paper.goal_gate", "a fingertip distance sum in [0, 100] m (0: off)", "-1"},
       {"block_stack", [](std::string t) { return set_value(t, "force_scale", "[1, 2]"); },
        "base.force_scale", "a number", "[1, 2]"},
       {"grasp_and_place", [](std::string t) { return set_value(t, "shape", "banana"); },
