@@ -11,7 +11,8 @@
 #       files say why). Each lane runs
 #       in its own process session (it outlives the device call), its runs one after the other
 #       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
-#       minibatches (the task's section of configs/train/ppo.yaml applies) to $SWEEP_STEPS
+#       minibatches (the task's section of configs/train/ppo.yaml applies; one that sets the
+#       task's slots keeps its slots and minibatches) to $SWEEP_STEPS
 #       slot-steps (default 50M), then the final policy's mean action over 256 episodes on the
 #       CPU path. Once every lane of its GPU is through its runs, a lane that has time left
 #       resumes, towards 100M, its runs whose return or success still rose over their last 10M
@@ -47,6 +48,13 @@ mkdir -p "$out" "$runs"
 
 # run_dir RUN: the run folder of TASK or TASK/sSEED
 run_dir() { echo "$runs/${1//\//-}"; }
+
+# own_slots TASK: exit 0 when configs/train/ppo.yaml's per_task section sets the task's slots
+own_slots() {
+  python3 -c 'import sys, yaml
+t = yaml.safe_load(open("configs/train/ppo.yaml"))["per_task"].get(sys.argv[1]) or {}
+sys.exit(0 if "slots" in (t.get("env") or {}) else 1)' "$1"
+}
 
 # still_rising RUN_DIR: exit 0 when the run still rises (bench/sweep_collect.py's rule)
 still_rising() { python3 bench/sweep_collect.py --rising "$1/metrics.csv"; }
@@ -89,8 +97,11 @@ lane() {
     if [[ -f $dir/config.yaml ]]; then
       args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
     else
+      # the sweep's slots and minibatches, unless the task's section of ppo.yaml sets its own
+      local scale=(-o env.slots="$slots" -o ppo.minibatches=16)
+      own_slots "$task" && scale=()
       args=(train --task "$task" --device "$device" --run "$dir" --no-registry --time-limit "$left"
-            -o env.slots="$slots" -o ppo.minibatches=16 -o seed="$seed" -o train.steps="$msteps"
+            "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     fi
     echo "bidex ${args[*]}" >>"$log/commands.txt"
@@ -137,7 +148,7 @@ start)
     gpu=${spec%%=*}
     IFS=, read -ra list <<<"${spec#*=}"
     echo "${list[*]}" >>"$out/lanes"
-    export -f lane run_dir still_rising
+    export -f lane run_dir still_rising own_slots
     export out runs steps slots device bidex reserve
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &

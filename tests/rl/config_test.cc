@@ -53,7 +53,7 @@ TEST_CASE("PPO defaults are the paper's table", "[rl][config]") {
   CHECK(c.batch() == 2048 * 8);
 }
 
-TEST_CASE("per-task columns of the paper's table apply to their task only", "[rl][config]") {
+TEST_CASE("per-task columns of the paper's table and the sweep's apply to their task only", "[rl][config]") {
   const auto lift = resolve("lift_underarm");
   CHECK(lift.ppo.horizon == 20);
   CHECK(lift.ppo.epochs == 10);
@@ -63,6 +63,14 @@ TEST_CASE("per-task columns of the paper's table apply to their task only", "[rl
   CHECK(stack.ppo.minibatches == 8);
   CHECK(stack.ppo.gamma == 0.9);
   CHECK(resolve("catch_underarm").ppo.epochs == 5);
+  // the PPO sweep's measured settings: a quarter of its slot-steps an update
+  for (const char* task : {"two_catch_underarm", "door_open_inward"}) {
+    const auto c = resolve(task);
+    CHECK(c.slots == 4096);
+    CHECK(c.ppo.minibatches == 4);
+    CHECK(c.batch() == 4096 * 8);
+  }
+  CHECK(resolve("door_open_outward").slots == 2048);
 }
 
 TEST_CASE("overrides (-o) change nested keys with YAML values", "[rl][config]") {
