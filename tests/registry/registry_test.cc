@@ -40,8 +40,10 @@ const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"hand_over", 269.0},         {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
     {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_inward", 467},
     {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
-    {"lift_underarm", 1341.65},   {"scissors", 570.875},         {"bottle_cap", 493.569},
-    {"push_block", 602.088},      {"switch", 452.254},           {"pen", 413.094}};
+    {"lift_underarm", 1322.19},   {"scissors", 570.875},         {"bottle_cap", 493.569},
+    {"push_block", 602.088},      {"switch", 452.254},           {"pen", 413.094},
+    {"swing_cup", 1511.80},       {"grasp_and_place", 140.918},  {"block_stack", 699.799},
+    {"re_orientation", 503.821},  {"pour_water", 181.431}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
@@ -132,15 +134,14 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
         CHECK(r->source.rfind("bidex PPO on the GPU path, ", 0) == 0);
     }
     CHECK(reg.reference("lift_underarm", "ground_truth")->source.find(
-              "gpu-references-h100/references-ml20-test.json") != std::string::npos);
+              "sweep-h100x4/lease3/lift_underarm/eval.json") != std::string::npos);
     CHECK(reg.reference("scissors", "ground_truth")->source.find(
               "sweep-h100x4/lease2/scissors/eval.json") != std::string::npos);
     CHECK(reg.reference("switch", "ground_truth")->source.find(
               "sweep-h100x4/switch/eval.json") != std::string::npos);
-    // the tasks the sweep has not yet run to 50M slot-steps
-    for (const char* task : {"swing_cup", "re_orientation", "block_stack", "pour_water",
-                             "grasp_and_place"})
-      CHECK_FALSE(reg.reference(task, "ground_truth"));
+    // every one of the twenty paper tasks has a ground truth
+    CHECK(kGroundTruth.size() == 20);
+    for (auto& t : reg.tasks(false)) CHECK(reg.reference(t.id, "ground_truth"));
     // every paper task has a random score with its source (spot values from references.yaml)
     for (auto& t : reg.tasks(false)) {
       INFO(t.id);
@@ -292,8 +293,10 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   reg.set_reference({"pen", "random", 10.0, "test"});
   reg.set_reference({"pen", "ground_truth", -10.0, "test"});
   CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
-  // missing references: the file gives every task a random score, ground truths to fourteen
-  CHECK_FALSE(reg.normalised("swing_cup", 10.0));       // random only
+  // missing references: the file gives every paper task both; a variant task gets a random
+  // score only here
+  reg.set_reference({"hand_over_free", "random", 1.0, "test"});
+  CHECK_FALSE(reg.normalised("hand_over_free", 10.0));  // random only
   CHECK_FALSE(reg.normalised("no_such_task", 10.0));
   // equal references cannot normalise
   reg.set_reference({"scissors", "random", 3.0, "test"});
@@ -301,12 +304,12 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   CHECK_FALSE(reg.normalised("scissors", 10.0));
 
   // a meta-RL evaluation's entries: each before and after, and the means over the entries
-  // whose task has both references (hand_over and pen here; swing_cup has no ground truth)
+  // whose task has both references (hand_over and pen here; hand_over_free has no ground truth)
   std::vector<AdaptScore> scores(3);
   scores[0].task = "hand_over";
   scores[0].return_before = 2.0;   // 0
   scores[0].return_after = 135.5;  // 0.5
-  scores[1].task = "swing_cup";
+  scores[1].task = "hand_over_free";
   scores[1].return_before = 1.0;
   scores[1].return_after = 2.0;
   scores[2].task = "pen";
@@ -715,7 +718,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   GroundTruthOnly references(dir);  // the random scores are set here
   Registry reg(dir.file("r.sqlite"));
   reg.set_reference({"hand_over", "random", 2.0, "test"});
-  reg.set_reference({"lift_underarm", "random", 341.65, "test"});  // ground truth 1341.65
+  reg.set_reference({"lift_underarm", "random", 322.19, "test"});  // ground truth 1322.19
   auto task_run = [&](const std::string& task, double ret) {
     registry::RunRecord r;
     r.algo = "ppo";
@@ -727,7 +730,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   };
   task_run("hand_over", 269.0);                          // older: replaced by the next
   const int64_t ho = task_run("hand_over", 135.5);       // (135.5 - 2) / 267 = 0.5
-  const int64_t lift = task_run("lift_underarm", 591.65);  // 250 / 1000 = 0.25
+  const int64_t lift = task_run("lift_underarm", 572.19);  // 250 / 1000 = 0.25
   task_run("catch_underarm", 10);                        // no random score: not normalised
   const auto rep = registry::age_report(reg);
   REQUIRE(rep.rows.size() == 20);
