@@ -26,7 +26,8 @@ def num(r, key):
 
 
 def weighted(pairs):
-    """The mean of (value, weight) pairs without a value, None when no weight is left."""
+    """The weighted mean of (value, weight) pairs, skipping those without a value (None when no
+    weight is left)."""
     pairs = [(x, w) for x, w in pairs if x is not None and w > 0]
     total = sum(w for _, w in pairs)
     return sum(x * w for x, w in pairs) / total if total else None
@@ -99,8 +100,9 @@ def summarise(outdir, spec):
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)
-    hit = next((r for i, r in enumerate(rows) if (recent(rows, i, comparable) or -1e300) >= target),
-               None) if target else None
+    reached = [recent(rows, i, comparable) for i in range(len(rows))] if target else []
+    first = next((i for i, v in enumerate(reached) if v is not None and v >= target), None)
+    hit = None if first is None else rows[first]
     fps = sorted(float(r["fps"]) for r in rows[3:] or rows)
     commands = open(f"{d}/commands.txt").read().splitlines() if os.path.exists(f"{d}/commands.txt") else []
     t = {
@@ -119,7 +121,7 @@ def summarise(outdir, spec):
         "reached_original": hit is not None,
         "reached_at": None if hit is None else {
             "wall_s": float(hit["wall_s"]), "slot_steps": int(float(hit["steps"])),
-            "return_no_bonus": recent(rows, rows.index(hit), comparable)},
+            "return_no_bonus": reached[first]},
         "eval": None if ev is None else {
             "update": ev.get("update"), "episodes": ev["episodes"],
             "return": ev["mean_return"], "std": ev["std_return"],
@@ -154,7 +156,8 @@ def main():
 def write(outdir, machine, commit, date, specs, refreshed=None):
     """OUTDIR/sweep.json (atomically) and a line per run on stdout"""
     out = {
-        "what": "PPO at the paper's settings (16,384 slots, 16 minibatches) on every task on the "
+        "what": "PPO at the paper's settings (16,384 slots, 16 minibatches, unless the task's "
+                "section of configs/train/ppo.yaml sets its own slots) on every task on the "
                 "GPU path; each final policy's mean action evaluated over 256 episodes on the CPU "
                 "path; training returns and success as means over episodes; the wall time and "
                 "slot-steps at which the mean training return (without bidex's goal bonus) of the "
