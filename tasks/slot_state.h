@@ -28,6 +28,8 @@ struct SlotState {
   int progress = 0;          // control steps since the reset
   bool success = false;      // the success condition held at some step of this episode
   bool bonus_paid = false;   // the one-off goal bonus of this episode was paid
+  unsigned goals_reached = 0;  // bit i: goal i was reached in this episode (families that
+                               // count goals one by one: re_orientation's goal_mode each)
   bool nonfinite_obs = false;  // the last observation had a non-finite value (set to 0): the
                                // next step faults the world instead of evaluating it
   // goal poses: position (3) then orientation (w, x, y, z)

@@ -59,7 +59,9 @@ struct TableProgram {
   double offset = 0, gate = 0, goal_scale = 0, goal_offset = 0, rot_eps = 0, reach_scale = 0;
   double target_angle = 0, success = 0;
   double drop_height = 0, max_reach = 0;
-  int t_offset = -1, t_right = -1, t_left = -1, t_goal = -1;
+  // pour_water: lift_scale x min(max(z - lift_from, 0), lift_max), z the kettle's height
+  double lift_scale = 0, lift_max = 0, lift_from = 0;
+  int t_offset = -1, t_right = -1, t_left = -1, t_lift = -1, t_goal = -1;
 };
 static_assert(std::is_trivially_copyable_v<TableProgram>, "copied to the device as bytes");
 
@@ -230,10 +232,14 @@ BIDEX_HD bool table_evaluate(const TableProgram& p, const sim::WorldRows<Real>& 
     case TableKind::kSwitch:
       terms[p.t_goal] = scale * (off - e);
       break;
-    case TableKind::kPourWater:
+    case TableKind::kPourWater: {
+      const Real h = math::min(math::max(w.xpos[3 * p.body[0] + 2] - Real(p.lift_from), Real(0)),
+                               Real(p.lift_max));
+      terms[p.t_lift] = near ? Real(p.lift_scale) * h : Real(0);
       terms[p.t_goal] = near ? scale * (off - e) : Real(0);
       end = l[2] <= Real(p.drop_height);
       break;
+    }
   }
   if (table_success(p, w, e)) st.success = true;
   return end;

@@ -69,6 +69,8 @@ std::vector<Num> reward_keys(TableKind k) {
               {"gate", &P::gate, 0, 100, "a distance sum in [0, 100] m"},
               {"pour_scale", &P::goal_scale, 0, 1e3, "a scale in [0, 1000] 1/m"},
               {"pour_offset", &P::goal_offset, -1e3, 1e3, "an offset in [-1000, 1000] m"},
+              {"lift_scale", &P::lift_scale, 0, 1e3, "a scale in [0, 1000] 1/m"},
+              {"lift_max", &P::lift_max, 0, 1, "a height in [0, 1] m"},
               {"success_distance", &P::success, 0, 1, "a distance in [0, 1] m"}};
   }
   return {};
@@ -274,6 +276,8 @@ TaskSpec table_family_spec(TableKind kind, std::string id, std::string paper_nam
       term("offset", "the constant reward.offset");
       term("reach_right", "-(sum of the right fingertips' distances to the kettle handle) (m)");
       term("reach_left", "-(sum of the left fingertips' distances to the bucket opening) (m)");
+      term("lift", "lift_scale min(h, lift_max) while both sums < gate, h the kettle's rise "
+                   "above its start (m, >= 0); 0 by default (lift_scale 0)");
       term("pour", "pour_scale (pour_offset - d) while both sums < gate, d the spout's distance "
                    "to the bucket opening (m)");
       break;
@@ -348,9 +352,13 @@ TableTask::TableTask(TableKind kind, const TaskSpec& spec, TableParams params)
   g.success = p_.success;
   g.drop_height = p_.drop_height;
   g.max_reach = p_.max_reach;
+  g.lift_scale = p_.lift_scale;
+  g.lift_max = p_.lift_max;
+  g.lift_from = p_.object.pos[2];
   g.t_offset = spec.term_index("offset");
   g.t_right = spec.term_index("reach_right");
   g.t_left = spec.term_index("reach_left");
+  g.t_lift = spec.term_index("lift");
   g.t_goal = static_cast<int>(spec.reward_terms.size()) - 1;
 }
 

@@ -47,6 +47,8 @@ struct TableParams {
   double goal_yaw = 0;              // swing_cup: the goal orientation, yaw about world z
   double target_angle = 0;          // scissors: the joint's goal angle
   double success = 0;               // the success threshold (units per kind)
+  // pour_water: lift_scale x (the kettle's rise above its start, capped at lift_max) (1/m, m)
+  double lift_scale = 0, lift_max = 0;
   // termination
   double drop_height = 0;           // swing_cup, pour_water: the object (point) at or below it
   double max_reach = 0;             // scissors, pen: a fingertip-distance sum at or above it

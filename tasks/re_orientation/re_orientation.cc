@@ -45,13 +45,17 @@ ReOrientationParams load(const std::string& file) {
   {
     auto r = root.child("reward");
     r.allow_keys({"dist_scale", "rot_scale", "rot_eps", "action_penalty", "goal_bonus",
-                  "rotation_tolerance"});
+                  "rotation_tolerance", "goal_mode"});
     p.dist_scale = read_number(r, "dist_scale", -1e4, 0, "a scale <= 0");
     p.rot_scale = read_number(r, "rot_scale", 0, 1e4, "a scale >= 0");
     p.rot_eps = read_number(r, "rot_eps", 1e-6, 10, "an epsilon in [1e-6, 10] rad");
     p.action_penalty = read_number(r, "action_penalty", -10, 0, "a coefficient in [-10, 0]");
     p.goal_bonus = read_number(r, "goal_bonus", 0, 1e6, "a bonus >= 0");
     p.rotation_tolerance = read_number(r, "rotation_tolerance", 0, M_PI, "an angle in [0, pi] rad");
+    auto mode = r.child("goal_mode");
+    const auto m = mode.as<std::string>();
+    if (m != "both" && m != "each") mode.fail("'both' or 'each'", mode.repr());
+    p.each_goal = m == "each";
   }
   {
     auto t = root.child("termination");
@@ -77,7 +81,9 @@ TaskSpec make_spec() {
       {"position", "dist_scale (d1 + d2): the cubes' distances to their goal positions (m)"},
       {"rotation1", "rot_scale / (theta1 + rot_eps), theta1 cube 1's rotation distance (rad)"},
       {"rotation2", "rot_scale / (theta2 + rot_eps)"},
-      {"goal_bonus", "goal_bonus when both thetas are below rotation_tolerance (then new goals)"},
+      {"goal_bonus", "goal_bonus when both thetas are below rotation_tolerance, then new goals "
+                     "(goal_mode both); goal_bonus for each cube whose theta is, then a new "
+                     "goal for it (goal_mode each)"},
       {"action_penalty", "action_penalty x sum of squared actions"},
   };
   return s;
@@ -104,6 +110,7 @@ ReOrientation::ReOrientation(const TaskSpec& spec, ReOrientationParams p)
   g.action_penalty = p_.action_penalty;
   g.goal_bonus = p_.goal_bonus;
   g.rotation_tolerance = p_.rotation_tolerance;
+  g.each_goal = p_.each_goal;
   g.drop_height = p_.drop_height;
   g.t_pos = spec.term_index("position");
   g.t_rot[0] = spec.term_index("rotation1");

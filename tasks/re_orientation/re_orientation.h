@@ -21,6 +21,7 @@ struct ReOrientationParams {
   // reward: dist_scale (d1 + d2) + rot_scale / (theta_i + rot_eps) + action_penalty sum(a^2)
   double dist_scale = -10, rot_scale = 1, rot_eps = 0.1, action_penalty = -0.0002;
   double goal_bonus = 500, rotation_tolerance = 0.1;
+  bool each_goal = false;  // goal_mode: "both" (false) or "each" (true), README
   double drop_height = 0.2;
 };
 

@@ -30,18 +30,21 @@ struct ReOrientationProgram {
   // reward: dist_scale (d1 + d2) + rot_scale / (theta_i + rot_eps) + action_penalty sum(a^2)
   double dist_scale = 0, rot_scale = 0, rot_eps = 0, action_penalty = 0;
   double goal_bonus = 0, rotation_tolerance = 0;
+  bool each_goal = false;  // goal_mode each: a cube at its goal gets its own new goal
   double drop_height = 0;
   int t_pos = -1, t_rot[2] = {-1, -1}, t_bonus = -1, t_action = -1;
 };
 static_assert(std::is_trivially_copyable_v<ReOrientationProgram>,
               "copied to the device as bytes");
 
-// Both goals get one new random orientation (the original's shared goal rotation).
+// The goals in `which` (bit i: goal i) get one new random orientation, shared (the original's
+// shared goal rotation).
 BIDEX_HD inline void re_orientation_new_goals(const ReOrientationProgram& p, SlotState& st,
-                                              SlotRng& rng) {
+                                              SlotRng& rng, unsigned which = 3) {
   double q[4] = {1, 0, 0, 0};
   if (p.random_goal_rotation) math::random_rotation(q, rng);
   for (int i = 0; i < 2; ++i) {
+    if (!(which & (1u << i))) continue;
     auto& g = st.goal[i];
     for (int k = 0; k < 3; ++k) g[k] = p.obj[i].goal[k];
     for (int k = 0; k < 4; ++k) g[3 + k] = q[k];
@@ -97,9 +100,10 @@ BIDEX_HD void re_orientation_goal_error(const ReOrientationProgram& p,
   *theta = math::rot_distance(w.xquat + 4 * p.obj[i].body, g + 3);
 }
 
-// The reward terms; both cubes at their goal orientations at once: bonus, success and new goals
-// (drawn from the world's stream) with their markers moved.
-// Ends when a cube falls.
+// The reward terms. goal_mode both: both cubes at their goal orientations at once give the bonus,
+// success and new goals (drawn from the world's stream) with their markers moved. goal_mode
+// each: every cube at its goal gives a bonus and gets a new goal of its own; success once both
+// have reached one in the episode. Ends when a cube falls.
 template <class Real>
 BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
                                       const sim::WorldRows<Real>& w, SlotState& st, SlotRng& rng,
@@ -116,10 +120,20 @@ BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
   for (int k = 0; k < p.nact; ++k) a2 += double(st.action[k]) * st.action[k];
   terms[p.t_action] = Real(p.action_penalty * a2);
   const Real tol = Real(p.rotation_tolerance);
-  if (th[0] < tol && th[1] < tol) {
-    terms[p.t_bonus] = Real(p.goal_bonus);
-    st.success = true;
-    re_orientation_new_goals(p, st, rng);
+  unsigned at = 0;
+  for (int i = 0; i < 2; ++i)
+    if (th[i] < tol) at |= 1u << i;
+  if (p.each_goal) {
+    terms[p.t_bonus] = Real(p.goal_bonus) * Real((at & 1u) + (at >> 1));
+    st.goals_reached |= at;
+    if (st.goals_reached == 3u) st.success = true;
+  } else {
+    at = at == 3u ? 3u : 0u;
+    terms[p.t_bonus] = at ? Real(p.goal_bonus) : Real(0);
+    if (at) st.success = true;
+  }
+  if (at) {
+    re_orientation_new_goals(p, st, rng, at);
     re_orientation_place_markers(p, st, w.mocap_pos, w.mocap_quat);
   }
   return fell;

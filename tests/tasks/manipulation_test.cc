@@ -715,6 +715,54 @@ TEST_CASE("oracle: re_orientation pays the bonus only when both cubes reach thei
   for (int k = 0; k < 4; ++k) CHECK(env->batch().data(0)->mocap_quat[4 * g.mocap + k] == now[k]);
 }
 
+TEST_CASE("oracle: re_orientation's goal_mode each pays each cube at its goal and gives it a new one",
+          "[tasks][manip][oracle]") {
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "re_orientation", {{"goal_mode", "each"}});
+  auto env = make_env("re_orientation", 1, 3, 0, file);
+  std::vector<double> t;
+  auto goal_q = [&](int i) {
+    const auto& g = env->slot_state(0).goal[i];
+    return Q{g[3], g[4], g[5], g[6]};
+  };
+  auto goal_p = [&](int i) {
+    const auto& g = env->slot_state(0).goal[i];
+    return Vec{g[0], g[1], g[2]};
+  };
+  // cube 2 at its goal, cube 1 turned 0.5 rad off: one bonus, a new goal for cube 2 only
+  const Q first = goal_q(0);
+  place_object(*env, 0, "object1", goal_p(0), qmul(qaxis(0, 1, 0, 0.5), goal_q(0)));
+  place_object(*env, 0, "object2", goal_p(1), goal_q(1));
+  sync(*env, 0);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "goal_bonus")] == 500);
+  CHECK(t[term(*env, "rotation2")] == Approx(10).epsilon(1e-9));
+  CHECK_FALSE(env->slot_state(0).success);  // success needs both cubes
+  CHECK(env->slot_state(0).goals_reached == 2u);
+  CHECK(goal_q(0) == first);
+  CHECK_FALSE(goal_q(1) == first);
+  const auto& g2 = object_of(*env, "goal2");
+  for (int k = 0; k < 4; ++k)
+    CHECK(env->batch().data(0)->mocap_quat[4 * g2.mocap + k] == goal_q(1)[k]);
+  // cube 1 at its goal, cube 2 away from its new one: a bonus, and success
+  place_object(*env, 0, "object1", goal_p(0), goal_q(0));
+  place_object(*env, 0, "object2", goal_p(1), qmul(qaxis(1, 0, 0, 0.5), goal_q(1)));
+  sync(*env, 0);
+  const Q second = goal_q(1);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "goal_bonus")] == 500);
+  CHECK(env->slot_state(0).success);
+  CHECK(env->slot_state(0).goals_reached == 3u);
+  CHECK_FALSE(goal_q(0) == first);
+  CHECK(goal_q(1) == second);
+  // both at once: two bonuses
+  place_object(*env, 0, "object1", goal_p(0), goal_q(0));
+  place_object(*env, 0, "object2", goal_p(1), goal_q(1));
+  sync(*env, 0);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "goal_bonus")] == 1000);
+}
+
 // ---- resets ----------------------------------------------------------------------------------
 
 TEST_CASE("re_orientation resets: shared noise and rotation, goals at the starts, hands in range",
@@ -883,6 +931,8 @@ TEST_CASE("manipulation tasks: bad YAML is a ConfigError naming file, key, expec
        "reset.random_goal_rotation", "true or false", "maybe"},
       {"re_orientation", [](std::string t) { return set_value(t, "dist_scale", "10"); },
        "reward.dist_scale", "a scale <= 0", "10"},
+      {"re_orientation", [](std::string t) { return set_value(t, "goal_mode", "either"); },
+       "reward.goal_mode", "'both' or 'each'", "either"},
       {"block_stack", [](std::string t) { return set_value(t, "stack_bonus_scale", "-1"); },
        "reward.stack_bonus_scale", "a scale in [0, 1e4]", "-1"},
       {"block_stack", [](std::string t) { return set_value(t, "variant", "printed"); },

@@ -165,6 +165,7 @@ void check_terms(tasks::TaskEnv& env, const std::string& id, int s) {
   }
   const std::map<std::string, double> offsets = {{"scissors", 2}, {"switch", 2}, {"pour_water", 1}};
   if (offsets.count(id)) CHECK(term(env, terms, "offset") == offsets.at(id));
+  if (id == "pour_water") CHECK(term(env, terms, "lift") == 0);  // off by default (lift_scale 0)
   const GoalCheck g = expected_goal(env, id, s, sr, sl);
   CHECK(term(env, terms, g.name) == Approx(g.value).margin(1e-9));
 }
@@ -235,7 +236,7 @@ TEST_CASE("table family layouts are the paper's index tables", "[tasks][table][l
       {"pen", "pen.body", "pen.cap", 125, {"reach_right", "reach_left", "separation"}},
       {"switch", "switch1.pos", "switch2.pos", 125, {"offset", "reach_right", "reach_left", "press"}},
       {"pour_water", "kettle.handle", "bucket.pos", 125,
-       {"offset", "reach_right", "reach_left", "pour"}},
+       {"offset", "reach_right", "reach_left", "lift", "pour"}},
   };
   const auto& ref = tasks::find_task("catch_underarm").spec();  // the free-base hand blocks
   for (const auto& t : tails) {
@@ -426,6 +427,36 @@ TEST_CASE("pen: the paper's one distance a hand by default, the original's sums 
     // the gate (both sums below 0.75 m) is shut at the start in both
     CHECK(term(*env, terms, "separation") == 0);
   }
+}
+
+TEST_CASE("pour_water: the lift term pays for the kettle's rise, capped, while the gate is open",
+          "[tasks][table][reward]") {
+  // lift = lift_scale min(max(z - 0.4, 0), lift_max), z the kettle's height (its start 0.4 m),
+  // while both fingertip sums are below the gate (0.7 m); off by default (README, "Learning")
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "pour_water", {{"lift_scale", "20"}, {"lift_max", "0.05"}});
+  auto raised = [&](tasks::TaskEnv& env, double h, bool hands_at_points) {
+    mjData* d = env.batch().data(0);
+    d->qpos[object_of(env, "kettle").qpos_adr + 2] = 0.4 + h;
+    sync(env, 0);
+    if (hands_at_points) {
+      auto [r, l] = points(env, "pour_water", d);
+      hand_to(env, 0, 0, r);
+      hand_to(env, 0, 1, l);
+    }
+    std::vector<double> terms;
+    evaluate(env, 0, terms);
+    return term(env, terms, "lift");
+  };
+  auto env = make_env("pour_water", 1, 1, 1, file);
+  CHECK(dynamic_cast<const tasks::TableTask&>(env->task()).params().lift_scale == 20);
+  CHECK(raised(*env, 0.03, true) == Approx(20 * 0.03).epsilon(1e-6));
+  CHECK(raised(*env, 0.2, true) == Approx(20 * 0.05).epsilon(1e-9));  // capped at lift_max
+  CHECK(raised(*env, 0.0, true) == Approx(0).margin(1e-6));
+  auto shut = make_env("pour_water", 1, 1, 1, file);  // hands at their mounts: the gate shut
+  CHECK(raised(*shut, 0.03, false) == 0);
+  auto off = make_env("pour_water", 1, 1, 1);  // the default: lift_scale 0
+  CHECK(raised(*off, 0.03, true) == 0);
 }
 
 TEST_CASE("table family success thresholds sit where the README says", "[tasks][table][oracle]") {
@@ -699,6 +730,8 @@ TEST_CASE("bad table family YAML files are ConfigErrors naming file, key, expect
        "episode_length", "an integer", "long"},
       {"pour_water", [](std::string t) { return edit_once(t, "count: 8", "count: 31"); },
        "water.count", "a count in [0, 30]", "31"},
+      {"pour_water", [](std::string t) { return set_value(t, "lift_max", "2"); },
+       "reward.lift_max", "a height in [0, 1] m", "2"},
       {"scissors", [](std::string t) { return set_value(t, "joint_angle", "1.2"); },
        "reset.joint_angle", "inside the joint range", "1.2"},
       {"swing_cup", [](std::string t) { return set_value(t, "rot_eps", "0"); }, "reward.rot_eps",
