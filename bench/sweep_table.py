@@ -3,7 +3,7 @@
 prints one markdown table and writes OUT/sweep-curves.svg and .png (rsvg-convert), the
 learning curves in a grid, each with the original's published final, the random policy's
 return and the mean action's evaluation. With several folders (one per lease), a run of a later
-folder replaces the run of the same name in an earlier one.
+folder replaces the run of the same name and slot count in an earlier one.
 Usage: bench/sweep_table.py DIR [DIR...] [--out OUT (default: the last DIR)]
                             [--references configs/registry/references.yaml]"""
 import argparse, json, os, shutil, subprocess, sys
@@ -31,11 +31,25 @@ def fmt(v, digits=1):
     return "" if v is None else f"{v:,.{digits}f}"
 
 
+SWEEP_SLOTS = 16384
+
+
+def slots(t):
+    """the run's slot count, from the config.yaml its folder keeps (the sweep's where absent)"""
+    path = os.path.join(t["dir"], t["run"], "config.yaml")
+    if not os.path.exists(path):
+        return SWEEP_SLOTS
+    return int(((yaml.safe_load(open(path)) or {}).get("env") or {}).get("slots", SWEEP_SLOTS))
+
+
 def label(t):
-    """the task, and the task YAML and training overrides of bench/sweep/ that the run used"""
+    """the task, the task YAML and training overrides of bench/sweep/ that the run used, and its
+    slots where they are its own (the task's section of configs/train/ppo.yaml)"""
     files = [t.get(k) for k in ("task_config", "overrides") if t.get(k)]
-    names = ", ".join(os.path.splitext(os.path.basename(f))[0] for f in files)
-    return t["task"] + (f" ({names})" if names else "")
+    names = [os.path.splitext(os.path.basename(f))[0] for f in files]
+    if not t.get("overrides") and slots(t) != SWEEP_SLOTS:
+        names.append(f"{slots(t):,} slots")
+    return t["task"] + (f" ({', '.join(names)})" if names else "")
 
 
 def table(runs, random):
@@ -151,7 +165,8 @@ def main():
         if not os.path.exists(path):
             sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
         for t in json.load(open(path))["runs"]:
-            byname[t["run"]] = dict(t, dir=d)  # a later lease's run replaces it
+            t = dict(t, dir=d)
+            byname[(t["run"], slots(t))] = t  # a later lease's run replaces it
     runs = list(byname.values())
     if not os.path.exists(a.references):
         sys.exit(f"sweep_table: --references {a.references} not found (run from the repository "
