@@ -42,7 +42,7 @@ const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
     {"lift_underarm", 1322.19},   {"scissors", 570.875},         {"bottle_cap", 493.569},
     {"push_block", 602.088},      {"switch", 452.254},           {"pen", 413.094},
-    {"swing_cup", 1511.80},       {"grasp_and_place", 140.918},  {"block_stack", 699.799},
+    {"swing_cup", 1511.80},       {"grasp_and_place", 183.611},  {"block_stack", 777.246},
     {"re_orientation", 503.821},  {"pour_water", 181.431}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
