@@ -37,8 +37,10 @@ fi
 
 # MuJoCo from its official wheel, pinned (cmake/BidexMuJoCo.cmake finds it there), the GPU
 # backend's MuJoCo Warp, pinned (its tests run it on Warp's CPU device where there is no GPU), and
-# h5py, with which the dataset tests read the HDF5 files as Minari's users do
-wheels=(mujoco==3.17.0 warp-lang==1.19.0 mujoco-warp==4.0.0 h5py==3.12.1)
+# h5py, with which the dataset tests read the HDF5 files as Minari's users do; nanobind, which
+# builds the Python module, and gymnasium and pytest, which it is used and tested with (python/)
+wheels=(mujoco==3.17.0 warp-lang==1.19.0 mujoco-warp==4.0.0 h5py==3.12.1
+        nanobind==3.1.0 gymnasium==1.4.0 pytest==9.2.0)
 venv=.venv
 if ! "$venv/bin/python" - "${wheels[@]}" 2>/dev/null <<'PY'
 import importlib.metadata as m, sys
@@ -52,4 +54,8 @@ fi
 
 cmake -S . -B "$build_dir" -G Ninja -DCMAKE_BUILD_TYPE=Release ${BIDEX_CMAKE_ARGS:-} >/dev/null
 cmake --build "$build_dir"
-echo "setup: built $build_dir/apps/bidex"
+# the Python package of the build tree, importable in the venv (.venv/bin/python -c 'import bidex');
+# pip install . builds and installs it into another environment (python/README.md)
+site=$("$venv/bin/python" -c 'import sysconfig; print(sysconfig.get_paths()["purelib"])')
+echo "$(realpath "$build_dir")/python" > "$site/bidex.pth.tmp" && mv "$site/bidex.pth.tmp" "$site/bidex.pth"
+echo "setup: built $build_dir/apps/bidex and the Python package (.venv/bin/python -c 'import bidex')"
