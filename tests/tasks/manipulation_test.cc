@@ -672,18 +672,26 @@ TEST_CASE("oracle: grasp_and_place succeeds with the object in the bucket", "[ta
   CHECK(t[term(*env, "place")] == Approx(2.0).epsilon(1e-9));  // the term's best
 }
 
+namespace {
+
+// re_orientation's goal i of slot 0: its orientation and its position
+Q re_orientation_goal_q(const tasks::TaskEnv& env, int i) {
+  const auto& g = env.slot_state(0).goal[i];
+  return Q{g[3], g[4], g[5], g[6]};
+}
+Vec re_orientation_goal_p(const tasks::TaskEnv& env, int i) {
+  const auto& g = env.slot_state(0).goal[i];
+  return Vec{g[0], g[1], g[2]};
+}
+
+}  // namespace
+
 TEST_CASE("oracle: re_orientation pays the bonus only when both cubes reach their goals",
           "[tasks][manip][oracle]") {
   auto env = make_env("re_orientation", 1, 3);
   std::vector<double> t;
-  auto goal_q = [&](int i) {
-    const auto& g = env->slot_state(0).goal[i];
-    return Q{g[3], g[4], g[5], g[6]};
-  };
-  auto goal_p = [&](int i) {
-    const auto& g = env->slot_state(0).goal[i];
-    return Vec{g[0], g[1], g[2]};
-  };
+  auto goal_q = [&](int i) { return re_orientation_goal_q(*env, i); };
+  auto goal_p = [&](int i) { return re_orientation_goal_p(*env, i); };
   // only cube 2 at its goal (the original fired here): nothing
   place_object(*env, 0, "object1", goal_p(0), qmul(qaxis(0, 1, 0, 0.5), goal_q(0)));
   place_object(*env, 0, "object2", goal_p(1), goal_q(1));
@@ -721,14 +729,8 @@ TEST_CASE("oracle: re_orientation's goal_mode each pays each cube at its goal an
   const auto file = edited_yaml(dir, "re_orientation", {{"goal_mode", "each"}});
   auto env = make_env("re_orientation", 1, 3, 0, file);
   std::vector<double> t;
-  auto goal_q = [&](int i) {
-    const auto& g = env->slot_state(0).goal[i];
-    return Q{g[3], g[4], g[5], g[6]};
-  };
-  auto goal_p = [&](int i) {
-    const auto& g = env->slot_state(0).goal[i];
-    return Vec{g[0], g[1], g[2]};
-  };
+  auto goal_q = [&](int i) { return re_orientation_goal_q(*env, i); };
+  auto goal_p = [&](int i) { return re_orientation_goal_p(*env, i); };
   // cube 2 at its goal, cube 1 turned 0.5 rad off: one bonus, a new goal for cube 2 only
   const Q first = goal_q(0);
   place_object(*env, 0, "object1", goal_p(0), qmul(qaxis(0, 1, 0, 0.5), goal_q(0)));
