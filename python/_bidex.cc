@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "marl/split.h"
+#include "sim/render.h"
 #include "taskpack/pack.h"
 #include "taskpack/suite.h"
 #include "tasks/registry.h"
@@ -254,6 +255,29 @@ NB_MODULE(_bidex, m) {
         return Rows<float>(env.terms.data(), 2, shape, nb::handle());
       }, "g"_a, nb::rv_policy::reference_internal,
          "Entry g's reward terms of the last step, (its slots, its terms), unscaled.")
+      .def("render", [](PyPack& p, int slot, int width, int height) {
+        if (slot < 0 || slot >= p.pack->nslot())
+          throw nb::index_error(("world " + std::to_string(slot) + " of a pack of " +
+                                 std::to_string(p.pack->nslot()) + " worlds").c_str());
+        const int g = p.pack->group_of(slot);
+        auto& env = p.pack->group(g);
+        const mjData* d = env.batch().data(slot - p.pack->group_begin(g));
+        bidex::sim::RenderOptions o;
+        o.width = width;
+        o.height = height;
+        bidex::sim::Image img;
+        {
+          nb::gil_scoped_release r;
+          o.camera = bidex::sim::framing_camera(env.model(), d, double(width) / height);
+          img = bidex::sim::render(env.model(), d, o);
+        }
+        auto* rgb = new std::vector<uint8_t>(std::move(img.rgb));
+        nb::capsule owner(rgb, [](void* v) noexcept { delete static_cast<std::vector<uint8_t>*>(v); });
+        const size_t shape[3] = {static_cast<size_t>(img.height), static_cast<size_t>(img.width), 3};
+        return nb::ndarray<nb::numpy, uint8_t, nb::ndim<3>>(rgb->data(), 3, shape, owner);
+      }, "slot"_a, "width"_a, "height"_a,
+         "One world's picture, (height, width, 3) uint8, from a camera that frames the scene "
+         "(the headless renderer of sim/render.h, as bidex render uses).")
       .def("set_goal_shifts", [](PyPack& p, int g, const std::vector<int>& local,
                                  const std::vector<double>& shifts) {
         p.pack->set_goal_shifts(p.group(g), local, shifts);

@@ -77,9 +77,10 @@ class BidexVectorEnv(VectorEnv):
         ``{term name: (num_envs,) array}``, the reward's terms (unscaled).
     """
 
-    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": []}
+    metadata = {"autoreset_mode": AutoresetMode.SAME_STEP, "render_modes": ["rgb_array"]}
 
-    def __init__(self, pack_factory, num_envs: int, seed: int, copy: bool, name: str):
+    def __init__(self, pack_factory, num_envs: int, seed: int, copy: bool, name: str,
+                 render_mode: str | None = None, render_worlds=(0,), render_size=(320, 240)):
         super().__init__()
         self._factory = pack_factory
         self._seed = seed
@@ -91,7 +92,19 @@ class BidexVectorEnv(VectorEnv):
         self.num_envs = p.nslot
         if self.num_envs != num_envs:
             raise RuntimeError(f"bidex: a pack of {p.nslot} worlds for num_envs={num_envs}")
-        self.render_mode = None
+        if render_mode not in (None, "rgb_array"):
+            raise ValueError(f"render_mode: expected None or 'rgb_array', got {render_mode!r}")
+        self.render_mode = render_mode
+        self.render_worlds = [int(w) for w in render_worlds]
+        bad = [w for w in self.render_worlds if not 0 <= w < self.num_envs]
+        if bad or not self.render_worlds:
+            raise ValueError(f"render_worlds: expected worlds in [0, {self.num_envs}), got "
+                             f"{list(render_worlds)}")
+        w, h = render_size
+        if not (1 <= int(w) <= 4096 and 1 <= int(h) <= 4096):
+            raise ValueError(f"render_size: expected (width, height) in [1, 4096], got "
+                             f"{tuple(render_size)}")
+        self.render_size = (int(w), int(h))
         self.single_observation_space = gymnasium.spaces.Box(
             -OBS_CLIP, OBS_CLIP, (p.obs_dim,), np.float32)
         self.single_action_space = gymnasium.spaces.Box(-1.0, 1.0, (p.act_dim,), np.float32)
@@ -171,6 +184,15 @@ class BidexVectorEnv(VectorEnv):
             self._ep_length[done] = 0
         return self._out(p.obs), reward, term, trunc, infos
 
+    def render(self):
+        """With render_mode "rgb_array": a tuple of (height, width, 3) uint8 pictures, one for
+        each of ``render_worlds``, from a camera that frames the scene (the core's headless
+        renderer, as ``bidex render`` uses); None otherwise."""
+        if self.render_mode != "rgb_array":
+            return None
+        w, h = self.render_size
+        return tuple(self._pack.render(k, w, h) for k in self.render_worlds)
+
     def close_extras(self, **kwargs):
         self._pack = None
 
@@ -204,7 +226,8 @@ def _task_config(task: str, overrides: dict | None, tmp: list) -> str:
 
 def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0,
              overrides: dict | None = None, split: str = "train", threads: int = 0,
-             copy: bool = True) -> BidexVectorEnv:
+             copy: bool = True, render_mode: str | None = None, render_worlds=(0,),
+             render_size=(320, 240)) -> BidexVectorEnv:
     """``num_envs`` worlds of a task (``bidex.task_ids()``) or of a suite's split
     (``bidex.suite_ids()``: MT1 ... ML20; ``split`` "train" or "test"), as a Gymnasium
     VectorEnv.
@@ -214,6 +237,8 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
     - ``threads``: the core's threads (0: all cores). Results do not depend on it.
     - ``copy``: return copies (default) or read-only views of the core's buffers, which the next
       step overwrites.
+    - ``render_mode``: "rgb_array" for ``render()``, pictures of ``render_worlds`` at
+      ``render_size`` (width, height).
     - ``device``: "cpu". (The GPU backend is not in the Python module yet.)
     """
     if device != "cpu":
@@ -221,6 +246,7 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
                          f"backend yet), got {device!r}")
     num_envs = _check_count("num_envs", num_envs)
     seed = _check_count("seed", seed, 0)
+    view = (render_mode, render_worlds, render_size)
     threads = _check_count("threads", threads, 0)
     if not isinstance(task, str):
         raise ValueError(f"task: expected a task or suite id, got {task!r}")
@@ -231,7 +257,7 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
         if split not in ("train", "test"):
             raise ValueError(f"split: expected 'train' or 'test', got {split!r}")
         factory = lambda s: _bidex.Pack.from_suite(task, split, num_envs, s, threads)
-        return BidexVectorEnv(factory, num_envs, seed, copy, f"{task}/{split}")
+        return BidexVectorEnv(factory, num_envs, seed, copy, f"{task}/{split}", *view)
     if task not in _bidex.task_ids():
         raise ValueError(f"task: expected one of the task ids {', '.join(_bidex.task_ids())} "
                          f"or the suites {', '.join(_bidex.suite_ids())}, got {task!r}")
@@ -241,7 +267,7 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
     values = dict(overrides or {})
     # the pack reads the task's YAML when built; a reset with a new seed builds it again
     factory = lambda s: _task_pack(task, values, num_envs, s, threads)
-    return BidexVectorEnv(factory, num_envs, seed, copy, task)
+    return BidexVectorEnv(factory, num_envs, seed, copy, task, *view)
 
 
 def _task_pack(task, overrides, num_envs, seed, threads):

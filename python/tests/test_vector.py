@@ -286,3 +286,25 @@ def test_overrides_change_the_task():
     assert tr.all()
     nested = bidex.make_vec("hand_over", 2, overrides={"reward": {"goal_bonus": 0}})
     nested.reset()
+
+
+# ---- rendering ----------------------------------------------------------------------------
+
+def test_render_gives_pictures_of_the_chosen_worlds():
+    env = bidex.make_vec("hand_over", 3, seed=1, threads=1, render_mode="rgb_array",
+                         render_worlds=[0, 2], render_size=(64, 48))
+    assert "rgb_array" in env.metadata["render_modes"]
+    env.reset()
+    frames = env.render()
+    assert len(frames) == 2
+    for f in frames:
+        assert f.shape == (48, 64, 3) and f.dtype == np.uint8
+        assert f.std() > 5  # a scene, not a blank image
+    env.step(env.action_space.sample())
+    after = env.render()
+    assert not np.array_equal(after[0], frames[0])  # the hands moved
+    assert bidex.make_vec("hand_over", 1).render() is None  # no render_mode: nothing drawn
+    with pytest.raises(ValueError, match=r"render_worlds: expected worlds in \[0, 3\), got \[3\]"):
+        bidex.make_vec("hand_over", 3, render_mode="rgb_array", render_worlds=[3])
+    with pytest.raises(ValueError, match=r"render_mode: expected None or 'rgb_array', got 'human'"):
+        bidex.make_vec("hand_over", 1, render_mode="human")
