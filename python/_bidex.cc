@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "core/error.h"
-#include "marl/split.h"
+#include "marl/spec_json.h"
 #include "sim/render.h"
 #include "taskpack/pack.h"
 #include "taskpack/suite.h"
@@ -33,59 +33,6 @@ template <class T>
 using Rows = nb::ndarray<nb::numpy, const T, nb::ndim<2>, nb::c_contig>;
 template <class T>
 using Column = nb::ndarray<nb::numpy, const T, nb::ndim<1>, nb::c_contig>;
-
-nb::list slices(const bidex::tasks::Layout& l) {
-  nb::list out;
-  for (const auto& s : l.slices()) {
-    nb::dict d;
-    d["name"] = s.name;
-    d["start"] = s.start;
-    d["size"] = s.size;
-    d["doc"] = s.doc;
-    d["goal"] = s.goal;
-    out.append(d);
-  }
-  return out;
-}
-
-// A task's spec as plain Python data (bidex info --json has the same fields).
-nb::dict spec_dict(const bidex::tasks::TaskSpec& s) {
-  nb::list agents, terms;
-  for (const auto& a : s.agents) {
-    nb::dict d;
-    d["name"] = a.name;
-    d["obs"] = a.obs;
-    d["act"] = a.act;
-    agents.append(d);
-  }
-  for (const auto& t : s.reward_terms) {
-    nb::dict d;
-    d["name"] = t.name;
-    d["doc"] = t.doc;
-    terms.append(d);
-  }
-  nb::dict age;
-  age["min_months"] = s.age.min_months;
-  age["max_months"] = s.age.max_months;
-  age["text"] = s.age.text;
-  nb::dict d;
-  d["id"] = s.id;
-  d["version"] = s.version;
-  d["paper_name"] = s.paper_name;
-  d["original_name"] = s.original_name;
-  d["age"] = age;
-  d["difficulty"] = bidex::tasks::difficulty_name(s.difficulty);
-  d["skill"] = s.skill;
-  d["episode_length"] = s.episode_length;
-  d["free_base"] = s.free_base;
-  d["obs_dim"] = s.obs.dim();
-  d["act_dim"] = s.act.dim();
-  d["obs"] = slices(s.obs);
-  d["act"] = slices(s.act);
-  d["agents"] = agents;
-  d["reward_terms"] = terms;
-  return d;
-}
 
 PackMode mode_of(const std::string& m) {
   if (m == "plain") return PackMode::kPlain;
@@ -168,27 +115,16 @@ NB_MODULE(_bidex, m) {
     for (const auto& e : bidex::tasks::task_registry()) ids.push_back(e.spec().id);
     return ids;
   }, "The paper's twenty task ids, in its order.");
-  m.def("task_spec", [](const std::string& id) { return spec_dict(bidex::tasks::find_task(id).spec()); },
-        "id"_a, "A task's spec (identity, age, layouts, agents, reward terms) as a dict.");
+  m.def("task_spec_json", [](const std::string& id, const std::string& agents) {
+    const auto& spec = bidex::tasks::find_task(id).spec();
+    return bidex::marl::task_spec_json(spec, bidex::marl::agents_from_arg(spec, agents)).dump();
+  }, "id"_a, "agents"_a,
+     "A task's spec with the agents of a split (hand, finger, or a YAML file of agents, as "
+     "bidex train --agents), as the JSON text bidex info --json prints.");
   m.def("default_task_config", &bidex::tasks::default_task_config, "id"_a,
         "The path of a task's default YAML.");
   m.def("suite_ids", &bidex::taskpack::known_suites, "The suite ids (MT1 ... ML20).");
-  m.def("agent_split", [](const std::string& task, const std::string& agents) {
-    const auto split = bidex::marl::agents_from_arg(bidex::tasks::find_task(task).spec(), agents);
-    nb::list out;
-    for (const auto& a : split.agents) {
-      nb::dict d;
-      d["name"] = a.name;
-      d["obs_cols"] = a.obs_cols;
-      d["act_cols"] = a.act_cols;
-      d["obs_names"] = a.obs_names;
-      d["act_names"] = a.act_names;
-      out.append(d);
-    }
-    return out;
-  }, "task"_a, "agents"_a,
-     "The agents of a task's multi-agent split (hand, finger, or a YAML file of agents, as "
-     "bidex train --agents): name, observation and action columns, and the slices they are.");
+  m.attr("OBS_CLIP") = bidex::tasks::TaskEnv::kObsClip;
 
   nb::class_<PyPack>(m, "Pack")
       .def_static("from_entries",

@@ -11,12 +11,22 @@ Also ``gymnasium.make_vec("bidex/<task>-v0", num_envs=...)`` for every task id, 
 """
 import gymnasium as _gym
 
-from ._bidex import paper_task_ids, suite_ids, task_ids, task_spec
+import json as _json
+
+from ._bidex import paper_task_ids, suite_ids, task_ids
+from . import _bidex
 from .marl import BidexParallelEnv, make_marl
 from .vector import BidexVectorEnv, Layout, make_vec
 
 __all__ = ["BidexParallelEnv", "BidexVectorEnv", "Layout", "make_marl", "make_vec",
            "paper_task_ids", "suite_ids", "task_ids", "task_spec"]
+
+
+def task_spec(task: str, agents: str = "hand") -> dict:
+    """A task's spec as ``bidex info --task TASK --agents AGENTS --json`` prints it: identity,
+    age, difficulty, episode length, the named observation and action slices, the split's agents
+    (``obs_columns``, ``act_columns``) and the reward terms."""
+    return _json.loads(_bidex.task_spec_json(task, agents))
 
 
 def _register():

@@ -5,6 +5,7 @@ Isaac Lab's DirectMARLEnv is: every dict holds one ``(num_envs, ...)`` array per
 """
 from __future__ import annotations
 
+import json
 import os
 
 import gymnasium
@@ -27,14 +28,14 @@ class BidexParallelEnv:
     def __init__(self, env: BidexVectorEnv, task: str, agents: str):
         self.env = env
         self.num_envs = env.num_envs
-        split = _bidex.agent_split(task, agents)
+        split = json.loads(_bidex.task_spec_json(task, agents))["agents"]
         self.metadata = {"name": f"bidex_{task}", "autoreset_mode": env.metadata["autoreset_mode"],
                          "render_modes": []}
         self.possible_agents = [a["name"] for a in split]
         self.agents = list(self.possible_agents)
         self.split = {a["name"]: a for a in split}
-        self._obs_cols = {a["name"]: np.asarray(a["obs_cols"], np.int64) for a in split}
-        self._act_cols = {a["name"]: np.asarray(a["act_cols"], np.int64) for a in split}
+        self._obs_cols = {a["name"]: np.asarray(a["obs_columns"], np.int64) for a in split}
+        self._act_cols = {a["name"]: np.asarray(a["act_columns"], np.int64) for a in split}
         n = self.num_envs
         self._obs_spaces = {k: gymnasium.spaces.Box(-OBS_CLIP, OBS_CLIP, (n, len(c)), np.float32)
                             for k, c in self._obs_cols.items()}
@@ -114,5 +115,5 @@ def make_marl(task: str, num_envs: int = 1, *, agents: str = "hand", **kwargs) -
                                         and not os.path.isfile(agents)):
         raise ValueError(f"agents: expected 'hand', 'finger' or the path of a YAML file of "
                          f"agents, got {agents!r}")
-    _bidex.agent_split(task, agents)  # a bad split fails before the worlds are built
+    _bidex.task_spec_json(task, agents)  # a bad split fails before the worlds are built
     return BidexParallelEnv(make_vec(task, num_envs, **kwargs), task, agents)

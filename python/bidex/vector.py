@@ -20,7 +20,7 @@ from gymnasium.vector.utils import batch_space
 
 from . import _bidex
 
-OBS_CLIP = 5.0  # the core clips every observation to [-5, 5] (tasks::TaskEnv::kObsClip)
+OBS_CLIP = _bidex.OBS_CLIP  # the core clips every observation to [-OBS_CLIP, OBS_CLIP]
 
 
 @dataclass(frozen=True)
@@ -115,7 +115,7 @@ class BidexVectorEnv(VectorEnv):
         self.entry_of_env = np.zeros(self.num_envs, np.int32)
         for g in range(p.ngroups):
             b, n = p.group_begin(g), p.group_slots(g)
-            spec = _bidex.task_spec(p.group_task(g))
+            spec = json.loads(_bidex.task_spec_json(p.group_task(g), "hand"))
             self.entries.append({
                 "label": p.group_label(g), "task": spec["id"], "first_env": b, "num_envs": n,
                 "reward_scale": p.group_reward_scale(g), "one_hot_column": p.hot_column(g),
@@ -212,15 +212,13 @@ class BidexVectorEnv(VectorEnv):
         return np.array(view) if self._copy else view
 
 
-def _task_config(task: str, overrides: dict | None, tmp: list) -> str:
-    if not overrides:
-        return ""
+def _task_config(task: str, overrides: dict) -> str:
+    """A temporary task YAML: the task's default with `overrides` over it (the caller removes it)."""
     body = {"extends": _bidex.default_task_config(task)}
     body.update(_nested(overrides))
     fd, path = tempfile.mkstemp(prefix=f"bidex-{task}-", suffix=".yaml")
     with os.fdopen(fd, "w") as f:
         json.dump(body, f)  # JSON is YAML
-    tmp.append(path)
     return path
 
 
@@ -246,8 +244,8 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
                          f"backend yet), got {device!r}")
     num_envs = _check_count("num_envs", num_envs)
     seed = _check_count("seed", seed, 0)
-    view = (render_mode, render_worlds, render_size)
     threads = _check_count("threads", threads, 0)
+    view = (render_mode, render_worlds, render_size)
     if not isinstance(task, str):
         raise ValueError(f"task: expected a task or suite id, got {task!r}")
     if task in _bidex.suite_ids():
@@ -271,15 +269,14 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
 
 
 def _task_pack(task, overrides, num_envs, seed, threads):
-    tmp: list = []
+    config = _task_config(task, overrides) if overrides else ""
     try:
-        config = _task_config(task, overrides, tmp)
         return _bidex.Pack.from_entries(task, "plain",
                                         [{"task": task, "slots": num_envs, "config": config}],
                                         seed, threads)
     finally:
-        for path in tmp:
-            os.unlink(path)
+        if config:
+            os.unlink(config)
 
 
 def vector_entry_point(task: str, num_envs: int = 1, **kwargs) -> BidexVectorEnv:

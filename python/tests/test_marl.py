@@ -17,7 +17,7 @@ BINARY = os.environ.get("BIDEX_BINARY", "")
 def test_the_split_is_bidex_infos(agents):
     env = bidex.make_marl("catch_abreast", 3, agents=agents, seed=1, threads=1)
     assert len(env.possible_agents) == (2 if agents == "hand" else 12)
-    cols = np.sort(np.concatenate([env.split[a]["act_cols"] for a in env.possible_agents]))
+    cols = np.sort(np.concatenate([env.split[a]["act_columns"] for a in env.possible_agents]))
     assert np.array_equal(cols, np.arange(52))  # every action column, exactly once
     if not BINARY:
         pytest.skip("BIDEX_BINARY not set")
@@ -26,8 +26,8 @@ def test_the_split_is_bidex_infos(agents):
                                      text=True).stdout)
     assert [a["name"] for a in info["agents"]] == env.possible_agents
     for a in info["agents"]:
-        assert env.split[a["name"]]["obs_cols"] == a["obs_columns"]
-        assert env.split[a["name"]]["act_cols"] == a["act_columns"]
+        assert env.split[a["name"]]["obs_columns"] == a["obs_columns"]
+        assert env.split[a["name"]]["act_columns"] == a["act_columns"]
 
 
 def test_parallel_api_contract():
@@ -63,12 +63,12 @@ def test_the_view_steps_as_the_vector_env_does():
     rng = np.random.default_rng(0)
     for _ in range(20):
         a = rng.uniform(-1, 1, vec.action_space.shape).astype(np.float32)
-        per = {n: a[:, marl.split[n]["act_cols"]] for n in marl.agents}
+        per = {n: a[:, marl.split[n]["act_columns"]] for n in marl.agents}
         obs, rew, term, trunc, _ = marl.step(per)
         full, r, te, tr, _ = vec.step(a)
         assert np.array_equal(marl.state(), full)
         for n in marl.agents:
-            assert np.array_equal(obs[n], full[:, marl.split[n]["obs_cols"]])
+            assert np.array_equal(obs[n], full[:, marl.split[n]["obs_columns"]])
             assert np.array_equal(rew[n], r) and np.array_equal(term[n], te)
 
 

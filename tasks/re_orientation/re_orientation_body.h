@@ -102,8 +102,9 @@ BIDEX_HD void re_orientation_goal_error(const ReOrientationProgram& p,
 
 // The reward terms. goal_mode both: both cubes at their goal orientations at once give the bonus,
 // success and new goals (drawn from the world's stream) with their markers moved. goal_mode
-// each: every cube at its goal gives a bonus and gets a new goal of its own; success once both
-// have reached one in the episode. Ends when a cube falls.
+// each: every cube at its goal gives a bonus and gets a new goal (cubes at their goals at the
+// same step share one new orientation); success once both have reached one in the episode.
+// Ends when a cube falls.
 template <class Real>
 BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
                                       const sim::WorldRows<Real>& w, SlotState& st, SlotRng& rng,
