@@ -232,6 +232,16 @@ void TaskPack::reset() {
   for (int s = 0; s < nslot_; ++s) write_row(slot_group_[s], s - begin_[slot_group_[s]], s);
 }
 
+void TaskPack::set_autoreset(bool on) {
+  for (auto& e : envs_) e->set_autoreset(on);
+}
+
+void TaskPack::reset_slots(const uint8_t* mask) {
+  for (int g = 0; g < ngroups(); ++g) envs_[g]->reset_slots(mask + begin_[g]);
+  for (int s = 0; s < nslot_; ++s)
+    if (mask[s]) write_row(slot_group_[s], s - begin_[slot_group_[s]], s);
+}
+
 void TaskPack::step(const std::vector<float>& actions) {
   if (actions.size() != static_cast<size_t>(nslot_) * act_dim_)
     throw Error(spec_.name + ": step expects " + std::to_string(nslot_) + " x " +

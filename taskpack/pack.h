@@ -134,6 +134,13 @@ class TaskPack : public Pack {
 
   // Starts a new episode in every slot and writes `obs`.
   void reset() override;
+  // Autoreset of every entry (tasks::TaskEnv::set_autoreset): off, a slot whose episode ends
+  // keeps its final observation in `obs` and is held until reset_slots.
+  void set_autoreset(bool on);
+  bool autoreset() const { return envs_[0]->autoreset(); }
+  // New episodes in the slots whose `mask` value (nslot values) is nonzero; their rows are
+  // written, the other slots' rows are untouched.
+  void reset_slots(const uint8_t* mask);
   // One control step of every slot; `actions` holds nslot x act_dim values (entries past the
   // task's own action width are ignored).
   void step(const float* actions);

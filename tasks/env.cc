@@ -72,6 +72,7 @@ TaskEnv::TaskEnv(std::unique_ptr<Task> task, const EnvOptions& o) : task_(std::m
   done_return_.assign(n, 0.0);
   done_terms_.assign(n * nterms_, 0.0);
   done_length_.assign(n, 0);
+  ended_.assign(n, 0);
   stats_.term_sums.assign(nterms_, 0.0);
   // one row per thread that may step a slot (a pack's loop runs with the batch's thread count)
   thread_times_.assign(
@@ -128,19 +129,28 @@ void TaskEnv::start_episode(int s) {
   sim::sync_slot(*model_, *batch_, s);
 }
 
+void TaskEnv::restart(int s) {
+  sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
+  start_episode(s);
+  TaskSlot t = slot(s);
+  float* o = obs.data() + static_cast<size_t>(s) * obs_dim_;
+  task_->observe(t, o);
+  clip_observation(o, obs_dim_, kObsClip, state_[s]);
+  reward[s] = 0;
+  std::fill_n(terms.data() + static_cast<size_t>(s) * nterms_, nterms_, 0.0f);
+  terminated[s] = truncated[s] = success[s] = fault[s] = 0;
+  ended_[s] = 0;
+}
+
 void TaskEnv::reset() {
-  const size_t od = obs_dim_;
 #pragma omp parallel for schedule(static) num_threads(batch_->threads())
-  for (int s = 0; s < nslot_; ++s) {
-    sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
-    start_episode(s);
-    TaskSlot t = slot(s);
-    float* o = obs.data() + s * od;
-    task_->observe(t, o);
-    clip_observation(o, obs_dim_, kObsClip, state_[s]);
-    reward[s] = 0;
-    terminated[s] = truncated[s] = success[s] = fault[s] = 0;
-  }
+  for (int s = 0; s < nslot_; ++s) restart(s);
+}
+
+void TaskEnv::reset_slots(const uint8_t* mask) {
+#pragma omp parallel for schedule(static) num_threads(batch_->threads())
+  for (int s = 0; s < nslot_; ++s)
+    if (mask[s]) restart(s);
 }
 
 void TaskEnv::post_step(int s) {
@@ -196,11 +206,18 @@ void TaskEnv::post_step(int s) {
     done_return_[s] = ep_return_[s];
     done_length_[s] = st.progress;
     std::copy_n(erow, nterms_, done_terms_.data() + static_cast<size_t>(s) * nterms_);
-    if (!sim_fault) sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
-    start_episode(s);
+    if (autoreset_) {
+      if (!sim_fault) sim::reset_slot(*model_, *batch_, s, /*forward=*/false);
+      start_episode(s);
+    } else {  // the slot stays at its end, its observation the final one
+      ended_[s] = 1;
+      std::copy_n(fo, obs_dim_, o);
+    }
   }
-  task_->observe(t, o);
-  clip_observation(o, obs_dim_, kObsClip, st);
+  if (!ended_[s]) {
+    task_->observe(t, o);
+    clip_observation(o, obs_dim_, kObsClip, st);
+  }
   if (profile_on_) thread_times_[omp_get_thread_num() * kPad + 1] += now() - t0;
 }
 
@@ -229,6 +246,12 @@ void TaskEnv::begin_step(const float* actions, int stride) {
 }
 
 void TaskEnv::step_slot(int s) {
+  if (ended_[s]) {  // autoreset off: held at its end until reset_slots (obs unchanged)
+    reward[s] = 0;
+    std::fill_n(terms.data() + static_cast<size_t>(s) * nterms_, nterms_, 0.0f);
+    terminated[s] = truncated[s] = fault[s] = 0;
+    return;
+  }
   // 1. actions -> the slot's ctrl and base wrench rows
   {
     const double t0 = profile_on_ ? now() : 0;

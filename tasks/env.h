@@ -87,6 +87,18 @@ class TaskEnv {
 
   // Starts a new episode in every slot and writes `obs`.
   void reset();
+  // Autoreset, on by default: a slot whose episode ends starts its next episode within that
+  // step (`obs` is the new episode's, `final_obs` the last). Off, the slot stays ended: `obs`
+  // holds its final observation, and later steps hold it (no physics, reward 0, no flags)
+  // until reset_slots starts its next episode (Gymnasium's NEXT_STEP and DISABLED autoreset
+  // modes, python/README.md). Turning it on again resumes nothing: ended slots wait for
+  // reset_slots or reset.
+  void set_autoreset(bool on) { autoreset_ = on; }
+  bool autoreset() const { return autoreset_; }
+  bool ended(int s) const { return ended_[s] != 0; }
+  // New episodes in the slots whose `mask` value (nslot values) is nonzero, the other slots
+  // untouched: writes their `obs` and zeroes their reward, terms and flags.
+  void reset_slots(const uint8_t* mask);
   // One control step of every slot; `actions` holds nslot x act_dim values (clipped to [-1, 1]
   // here; a NaN reaches the simulation, which flags and resets that slot).
   void step(const float* actions);
@@ -126,6 +138,7 @@ class TaskEnv {
 
  private:
   void start_episode(int s);  // task reset after the simulation's reset
+  void restart(int s);        // simulation and task reset of slot s, its obs and cleared flags
   void post_step(int s);
 
   std::unique_ptr<Task> task_;
@@ -133,6 +146,8 @@ class TaskEnv {
   std::unique_ptr<sim::SimBatch> batch_;
   int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, nterms_ = 0, episode_length_ = 0;
   std::vector<SlotState> state_;
+  bool autoreset_ = true;
+  std::vector<uint8_t> ended_;  // per slot: its episode ended and awaits reset_slots
   const float* actions_ = nullptr;
   int action_stride_ = 0;
   double step_t0_ = 0;

@@ -385,6 +385,85 @@ TEST_CASE("a pack is bitwise deterministic for 1 and 2 threads", "[taskpack][det
   CHECK(std::memcmp(t3.data(), t4.data(), t3.size()) != 0);
 }
 
+// Autoreset off (Gymnasium's NEXT_STEP and DISABLED modes from Python): a pack that resets its
+// ended slots itself after each step runs bitwise as the pack that resets them within the step;
+// a slot left ended is held (obs, no reward, no flags, no physics) and a late reset_slots gives
+// the same first observation as the autoreset did.
+TEST_CASE("with autoreset off, ended slots hold their final observation until reset_slots",
+          "[taskpack]") {
+  TaskTempDir dir;
+  PackSpec spec;
+  spec.name = "held";
+  spec.mode = PackMode::kMultiTask;
+  spec.entries = {entry("catch_underarm", 3, 1.0, short_episodes(dir, "catch_underarm", 5)),
+                  entry("hand_over", 2, 0.5, short_episodes(dir, "hand_over", 4))};
+  auto same = make_pack(spec, 23);
+  auto next = make_pack(spec, 23);
+  next->set_autoreset(false);
+  CHECK_FALSE(next->autoreset());
+  const int n = same->nslot(), od = same->obs_dim();
+  std::mt19937_64 rng(9);
+  std::vector<float> a(static_cast<size_t>(n) * same->act_dim());
+  std::vector<uint8_t> ended(n);
+  int ends = 0;
+  for (int i = 0; i < 14; ++i) {
+    random_actions(a, rng);
+    same->step(a);
+    next->step(a);
+    INFO("step " << i);
+    REQUIRE(same_bits(same->reward.data(), next->reward.data(), n));
+    REQUIRE(same->terminated == next->terminated);
+    REQUIRE(same->truncated == next->truncated);
+    for (int s = 0; s < n; ++s) {
+      ended[s] = same->terminated[s] || same->truncated[s];
+      ends += ended[s];
+      // the held pack's obs of an ended slot is its final observation
+      const float* want = ended[s] ? same->final_obs.data() : same->obs.data();
+      REQUIRE(same_bits(next->obs.data() + s * od, want + s * od, od));
+      if (ended[s])
+        REQUIRE(same_bits(next->final_obs.data() + s * od, same->final_obs.data() + s * od, od));
+    }
+    next->reset_slots(ended.data());
+    REQUIRE(same_bits(next->obs.data(), same->obs.data(), same->obs.size()));
+  }
+  CHECK(ends >= n * 2);
+  const auto s1 = same->take_stats(), s2 = next->take_stats();
+  for (int g = 0; g < 2; ++g) {
+    CHECK(s1[g].episodes == s2[g].episodes);
+    CHECK(s1[g].return_sum == s2[g].return_sum);
+  }
+
+  // left ended: held for three steps, then reset late to the autoreset's first observation
+  next->reset();
+  same->reset();
+  for (int i = 0; i < 4; ++i) {  // hand_over's episodes (4 steps) end at the fourth step
+    random_actions(a, rng);
+    same->step(a);
+    next->step(a);
+  }
+  const int s = 3;  // hand_over's first slot
+  REQUIRE(next->truncated[s]);
+  REQUIRE(next->group(1).ended(0));
+  REQUIRE_FALSE(next->group(0).ended(0));  // catch_underarm's episodes last 5 steps
+  const std::vector<float> final_row(next->obs.begin() + s * od, next->obs.begin() + (s + 1) * od);
+  const std::vector<float> first_row(same->obs.begin() + s * od, same->obs.begin() + (s + 1) * od);
+  for (int i = 0; i < 3; ++i) {
+    random_actions(a, rng);
+    next->step(a);
+    CHECK(next->reward[s] == 0.0f);
+    CHECK_FALSE(next->terminated[s]);
+    CHECK_FALSE(next->truncated[s]);
+    CHECK(same_bits(next->obs.data() + s * od, final_row.data(), od));
+  }
+  std::vector<uint8_t> only(n, 0);
+  only[s] = 1;
+  const std::vector<float> others(next->obs.begin(), next->obs.begin() + s * od);
+  next->reset_slots(only.data());
+  CHECK(same_bits(next->obs.data() + s * od, first_row.data(), od));
+  CHECK(same_bits(next->obs.data(), others.data(), others.size()));  // the others untouched
+  CHECK(next->take_stats()[1].episodes == 2);  // each hand_over slot's episode counted once
+}
+
 TEST_CASE("invalid pack entries are ConfigErrors naming the entry", "[taskpack]") {
   auto error = [](const PackSpec& spec) {
     return thrown<ConfigError>([&] { make_pack(spec, 1, 1); });
