@@ -69,20 +69,27 @@ std::string warp_missing() { return ""; }
 
 namespace {
 
-// One interpreter per process, started on first use and never finalized (Warp and the CUDA
-// driver hold state to the end of the process). The GIL is released between calls.
+// One interpreter per process: in the bidex command and the tests, started on first use and
+// never finalized (Warp and the CUDA driver hold state to the end of the process), the GIL
+// released between calls; in the Python module (python/), the interpreter that imported it,
+// whose own packages come first (the build's are appended as a fallback).
 void ensure_python() {
   static std::once_flag once;
   std::call_once(once, [] {
-    py::initialize_interpreter(false);
+    const bool host = Py_IsInitialized();
+    if (!host) py::initialize_interpreter(false);
     {
+      py::gil_scoped_acquire gil;
       py::list path = py::module_::import("sys").attr("path");
+      auto add = [&](const char* dir) {
+        if (host) path.append(dir); else path.insert(0, dir);
+      };
       // the packages (mujoco, warp, mujoco_warp) and the bridge beside this file
-      path.insert(0, BIDEX_PYTHON_SITE);
-      if (const char* extra = std::getenv("BIDEX_PYTHON_SITE")) path.insert(0, extra);
-      path.insert(0, BIDEX_SOURCE_DIR "/sim");
+      add(BIDEX_PYTHON_SITE);
+      if (const char* extra = std::getenv("BIDEX_PYTHON_SITE")) add(extra);
+      add(BIDEX_SOURCE_DIR "/sim");
     }
-    PyEval_SaveThread();
+    if (!host) PyEval_SaveThread();
   });
 }
 

@@ -10,9 +10,11 @@ import os
 
 import gymnasium
 import numpy as np
+from gymnasium.vector import AutoresetMode
 
 from . import _bidex
-from .vector import OBS_CLIP, BidexVectorEnv, make_vec
+
+from .vector import OBS_CLIP, BidexVectorEnv, _autoreset_mode, make_vec
 
 
 class BidexParallelEnv:
@@ -71,16 +73,29 @@ class BidexParallelEnv:
         if missing or extra:
             raise ValueError(f"step: actions: expected one array for each agent of "
                              f"{self.agents}, got keys {list(actions)}")
-        full = np.zeros((self.num_envs, self._act_dim), np.float32)
+        torch = getattr(self.env._core, "torch", None)  # a GPU env takes torch tensors
+        if torch is None:
+            full = np.zeros((self.num_envs, self._act_dim), np.float32)
+        else:
+            full = torch.zeros((self.num_envs, self._act_dim), dtype=torch.float32,
+                               device=self.env.device)
         for a, cols in self._act_cols.items():
-            x = np.asarray(actions[a])
-            if not np.issubdtype(x.dtype, np.floating):
-                raise TypeError(f"step: actions['{a}']: expected a float array (float32), got "
+            x = actions[a]
+            if torch is None or not isinstance(x, torch.Tensor):
+                x = np.asarray(x)
+                if not np.issubdtype(x.dtype, np.floating):
+                    raise TypeError(f"step: actions['{a}']: expected a float array (float32), "
+                                    f"got dtype {x.dtype}")
+                if torch is not None:
+                    x = torch.from_numpy(x.astype(np.float32))
+            elif not x.dtype.is_floating_point:
+                raise TypeError(f"step: actions['{a}']: expected a float tensor (float32), got "
                                 f"dtype {x.dtype}")
             want = (self.num_envs, len(cols))
-            if x.shape != want:
-                raise ValueError(f"step: actions['{a}']: expected shape {want}, got {x.shape}")
-            full[:, cols] = x
+            if tuple(x.shape) != want:
+                raise ValueError(f"step: actions['{a}']: expected shape {want}, got "
+                                 f"{tuple(x.shape)}")
+            full[:, cols] = x if torch is None else x.to(full.device, torch.float32)
         obs, reward, term, trunc, info = self.env.step(full)
         self._state = obs
         infos = {}
@@ -96,6 +111,10 @@ class BidexParallelEnv:
         self.env.close()
 
     def _split(self, full):
+        torch = getattr(self.env._core, "torch", None)
+        if torch is not None:  # the columns as index tensors on the env's device
+            return {a: full[:, torch.as_tensor(c, device=full.device)]
+                    for a, c in self._obs_cols.items()}
         return {a: full[:, c] for a, c in self._obs_cols.items()}
 
     def _known(self, agent):
@@ -115,5 +134,9 @@ def make_marl(task: str, num_envs: int = 1, *, agents: str = "hand", **kwargs) -
                                         and not os.path.isfile(agents)):
         raise ValueError(f"agents: expected 'hand', 'finger' or the path of a YAML file of "
                          f"agents, got {agents!r}")
+    mode = kwargs.get("autoreset_mode", AutoresetMode.SAME_STEP)
+    if _autoreset_mode(mode) != AutoresetMode.SAME_STEP:
+        raise ValueError(f"autoreset_mode: expected SAME_STEP for the multi-agent view (its agents "
+                         f"never leave: worlds reset within the step), got {mode!r}")
     _bidex.task_spec_json(task, agents)  # a bad split fails before the worlds are built
     return BidexParallelEnv(make_vec(task, num_envs, **kwargs), task, agents)
