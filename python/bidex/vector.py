@@ -257,6 +257,7 @@ class BidexVectorEnv(VectorEnv):
         self._ep_return = np.zeros(self.num_envs, np.float64)
         self._ep_length = np.zeros(self.num_envs, np.int64)
         self._held = np.zeros(self.num_envs, bool)  # NEXT_STEP: ended last step, reset in this one
+        self._tasks_given = False
         self._needs_reset = True
 
     def _build(self, seed):
@@ -282,6 +283,8 @@ class BidexVectorEnv(VectorEnv):
             if not (self._fresh and seed == self._seed):
                 self._build(seed)
                 self._seed = seed
+                if self._tasks_given:  # the new pack's worlds take the tasks set before
+                    self._give_tasks(self.task_of_env)
         if not self._fresh:  # new episodes in every world (a new pack has begun its first)
             self._pack.reset()
         self._fresh = False
@@ -379,7 +382,9 @@ class BidexVectorEnv(VectorEnv):
 
     def set_goal_shifts(self, entry: int, envs, shifts):
         """Moves the goals of some worlds of one entry by ``shifts`` (m), ``(len(envs), k*3)``
-        for a task of k goals, from each world's next reset (meta-RL's goal sampling)."""
+        for a task of k goals, from each world's next reset (meta-RL's goal sampling). A reset
+        with a new seed builds a new pack, which starts from the suite's goals again (use
+        ``set_tasks`` for assignments that a seeded reset keeps)."""
         s = np.asarray(shifts, np.float64).reshape(-1)
         self._pack.set_goal_shifts(int(entry), [int(e) for e in envs], s.tolist())
         self._fresh = False  # the next reset() starts new episodes, which take them
@@ -403,6 +408,11 @@ class BidexVectorEnv(VectorEnv):
             raise ValueError(f"set_tasks: world {w} runs entry {self.entries[self.entry_of_env[w]]['label']}"
                              f" (tasks {own[0]}..{own[-1]}), got task {int(ids[w])} "
                              f"({self.tasks[int(ids[w])]['name']})")
+        self._give_tasks(ids)
+        self.task_of_env = ids.astype(np.int32)
+        self._tasks_given = True  # a seeded reset's new pack takes them too
+
+    def _give_tasks(self, ids):
         for g, e in enumerate(self.entries):
             if not e["goals"]:
                 continue
@@ -410,7 +420,6 @@ class BidexVectorEnv(VectorEnv):
             local = envs - e["first_env"]
             shifts = [self.tasks[int(ids[w])]["goal"] for w in envs]
             self._pack.set_goal_shifts(g, local.tolist(), np.ravel(shifts).tolist())
-        self.task_of_env = ids.astype(np.int32)
         self._fresh = False  # the next reset() starts new episodes, which take them
 
     def sample_tasks(self, rng=None):

@@ -134,6 +134,16 @@ def test_a_goal_suite_lists_its_tasks_and_set_tasks_moves_a_world_to_another_goa
         assert np.array_equal(o1, o2)  # the goal is not in a meta observation
         diff |= r1 != r2
     assert diff.tolist() == [True, False, False, False]  # the reward sees world 0's new goal
+    # a seeded reset builds a new pack: the tasks set before still hold there
+    env.reset(seed=9)
+    twin.reset(seed=9)
+    diff[:] = False
+    for _ in range(5):
+        o1, r1, *_ = env.step(z)
+        o2, r2, *_ = twin.step(z)
+        assert np.array_equal(o1, o2)
+        diff |= r1 != r2
+    assert diff.tolist() == [True, False, False, False]
     ids = env.sample_tasks(7)
     assert ids.shape == (4,) and ids.min() >= 0 and ids.max() < k
     assert np.array_equal(ids, env.sample_tasks(np.random.default_rng(7)))
