@@ -13,7 +13,6 @@ import numpy as np
 from gymnasium.vector import AutoresetMode
 
 from . import _bidex
-
 from .vector import OBS_CLIP, BidexVectorEnv, _autoreset_mode, make_vec
 
 
