@@ -249,16 +249,17 @@ NB_MODULE(_bidex, m) {
         pack.step();
       }, "One control step of every slot of a GPU pack with the actions in view('actions'), "
          "written (and finished) by the caller; returns when every row is written.")
-      .def("set_autoreset", [](PyPack& p, bool on) { p.cpu("set_autoreset").set_autoreset(on); }, "on"_a,
-           "Off: a slot whose episode ends holds its final observation until reset_slots.")
+      .def("set_autoreset", [](PyPack& p, bool on) {
+        if (p.pack) p.pack->set_autoreset(on); else p.dev->set_autoreset(on);
+      }, "on"_a, "Off: a slot whose episode ends holds its final observation until reset_slots.")
       .def("reset_slots", [](PyPack& p, nb::ndarray<const uint8_t, nb::ndim<1>, nb::c_contig, nb::device::cpu> mask) {
-        TaskPack& pack = p.cpu("reset_slots");
-        if (mask.shape(0) != static_cast<size_t>(pack.nslot()))
-          throw bidex::ConfigError("reset_slots", "mask", "shape (" + std::to_string(pack.nslot()) + ",)",
+        const int n = p.base().nslot();
+        if (mask.shape(0) != static_cast<size_t>(n))
+          throw bidex::ConfigError("reset_slots", "mask", "shape (" + std::to_string(n) + ",)",
                                    "(" + std::to_string(mask.shape(0)) + ",)");
         nb::gil_scoped_release r;
-        pack.reset_slots(mask.data());
-      }, "mask"_a, "New episodes in the slots where mask (uint8, nslot) is nonzero.")
+        if (p.pack) p.pack->reset_slots(mask.data()); else p.dev->reset_slots(mask.data());
+      }, "mask"_a, "New episodes in the slots where mask (uint8, nslot, on the host) is nonzero.")
       .def_prop_ro("obs", [](const PyPack& p) { const TaskPack& t = p.cpu("obs"); return p.rows(t.obs, t.obs_dim()); },
                    nb::rv_policy::reference_internal)
       .def_prop_ro("final_obs", [](const PyPack& p) { const TaskPack& t = p.cpu("final_obs"); return p.rows(t.final_obs, t.obs_dim()); },

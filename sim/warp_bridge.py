@@ -110,12 +110,19 @@ def _reset_inputs(
   ctrl: wp.array2d(dtype=float),
   wrench: wp.array2d(dtype=float),
   xfrc_applied: wp.array2d(dtype=wp.spatial_vector),
+  qfrc_actuator: wp.array2d(dtype=float),
+  qfrc_constraint: wp.array2d(dtype=float),
 ):
   # a reset world: position targets at the current joints (inside the control range), no base
-  # forces (sim/batch.cc reset_slot)
+  # forces (sim/batch.cc reset_slot), and no joint forces until its first step: MuJoCo Warp's
+  # reset_data keeps the last step's, which the first observation would read (mj_resetData on
+  # the CPU clears them)
   w = wp.tid()
   if reset[w] == 0:
     return
+  for i in range(qfrc_actuator.shape[1]):
+    qfrc_actuator[w, i] = 0.0
+    qfrc_constraint[w, i] = 0.0
   for a in range(ctrl.shape[1]):
     target = float(0.0)
     if act_qposadr[a] >= 0:
@@ -281,7 +288,8 @@ class Bridge:
   def _reset_inputs(self):
     wp.launch(_reset_inputs, dim=self.nworld,
               inputs=[self.reset_mask, self.act_qposadr, self.ctrl_lo, self.ctrl_hi, self.d.qpos,
-                      self.d.ctrl, self.base_wrench, self.d.xfrc_applied])
+                      self.d.ctrl, self.base_wrench, self.d.xfrc_applied, self.d.qfrc_actuator,
+                      self.d.qfrc_constraint])
 
   # ---- graphs ----
 

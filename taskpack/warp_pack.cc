@@ -124,6 +124,16 @@ void WarpPack::write_reset_rows() {
     home.upload_bytes(name, zero.data(), zero.size() * sizeof(float));
 }
 
+void WarpPack::set_autoreset(bool on) {
+  for (auto& e : envs_) e->set_autoreset(on);
+}
+
+void WarpPack::reset_slots(const uint8_t* mask) {
+  for (int g = 0; g < ngroups(); ++g)
+    envs_[g]->reset_slots(std::vector<uint8_t>(mask + begin_[g], mask + begin_[g] + group_slots(g)));
+  write_rows();  // the reset worlds' rows: no reward, no end; the others' as they were
+}
+
 void WarpPack::step() {
   const double t0 = monotonic_seconds();
   for (auto& e : envs_) e->step();  // queued on each entry's stream: the scenes overlap

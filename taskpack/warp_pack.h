@@ -45,6 +45,11 @@ class WarpPack : public Pack {
   void step();
   // Host actions (nslot x act_dim) copied in, then step() (tests, benchmarks).
   void step(const std::vector<float>& actions);
+  // Autoreset of every entry (tasks::WarpTaskEnv::set_autoreset) and new episodes in the slots
+  // whose `mask` value (nslot values) is nonzero, their rows rewritten (TaskPack's, on the GPU).
+  void set_autoreset(bool on);
+  bool autoreset() const { return envs_[0]->autoreset(); }
+  void reset_slots(const uint8_t* mask);
 
   // The pack's device rows, float32, one row per pack slot: actions (nslot x act_dim, written
   // by the caller), obs and final_obs (nslot x obs_dim; final_obs is valid where done is 1),

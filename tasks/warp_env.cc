@@ -156,6 +156,7 @@ WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
   a.done_terminated = reinterpret_cast<int64_t*>(alloc("done_terminated", 1, sizeof(int64_t)));
   a.done_truncated = reinterpret_cast<int64_t*>(alloc("done_truncated", 1, sizeof(int64_t)));
   a.done_faults = reinterpret_cast<int64_t*>(alloc("done_faults", 1, sizeof(int64_t)));
+  a.held = reinterpret_cast<uint8_t*>(alloc("held", 1, 1));
 
   // per-world random streams keyed like the CPU batch's: (seed, world, episode)
   std::vector<SlotRng> rng(nslot_);
@@ -188,10 +189,19 @@ void WarpTaskEnv::set_goal_shifts(const std::vector<int>& slots,
 }
 
 void WarpTaskEnv::reset() {
-  std::vector<int32_t> all(nslot_, 1);
-  backend_->upload_bytes("reset", all.data(), all.size() * sizeof(int32_t));
+  reset_slots(std::vector<uint8_t>(nslot_, 1));
+}
+
+void WarpTaskEnv::reset_slots(const std::vector<uint8_t>& mask) {
+  if (mask.size() != static_cast<size_t>(nslot_))
+    throw Error(spec().id + ": reset_slots expects " + std::to_string(nslot_) +
+                " mask values, got " + std::to_string(mask.size()));
+  const std::vector<int32_t> marked(mask.begin(), mask.end());
+  backend_->upload_bytes("reset", marked.data(), marked.size() * sizeof(int32_t));
   backend_->reset_begin();
+  arrays_.clearing = 1;
   runner_->run(Stage::kReset, arrays_, nslot_);
+  arrays_.clearing = 0;
   backend_->reset_end();
   runner_->run(Stage::kObserve, arrays_, nslot_);
 }

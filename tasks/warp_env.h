@@ -66,6 +66,14 @@ class WarpTaskEnv {
 
   // Starts a new episode in every world and writes `obs`.
   void reset();
+  // Autoreset (TaskEnv::set_autoreset): off, a finished world is held at its end (its actions
+  // ignored, reward 0, no flags, `obs` its final observation; the physics steps it still, and
+  // its next episode resets that) until reset_slots.
+  void set_autoreset(bool on) { arrays_.autoreset = on ? 1 : 0; }
+  bool autoreset() const { return arrays_.autoreset != 0; }
+  // New episodes in the worlds whose `mask` value (nslot values) is nonzero, held or not; their
+  // reward, terms and flags are cleared, the other worlds untouched.
+  void reset_slots(const std::vector<uint8_t>& mask);
   // One control step of every world with the actions in `actions()` (the caller writes them on
   // the device first: a policy's output, or upload_actions).
   void step();

@@ -37,6 +37,13 @@ struct WorldArrays {
   int obs_dim, act_dim, nterms, episode_length;
   uint64_t seed;
   float obs_clip;
+  // autoreset (TaskEnv::set_autoreset): 1, a finished world starts its next episode within the
+  // step; 0, it is held at its end (held[w]: its actions ignored, no reward, no flags, its obs
+  // the final one; the physics still steps it) until a reset pass outside the step
+  uint8_t* held;
+  int autoreset = 1;
+  int clearing = 0;  // 1 in a reset pass outside the step: it restarts held worlds too and
+                     // clears the outputs (reward, terms, flags) of the worlds it resets
 };
 
 BIDEX_HD inline sim::WorldRows<float> world_rows(const WorldArrays& a, int w) {
@@ -70,6 +77,7 @@ BIDEX_HD inline sim::ResetRows<float> world_reset_rows(const WorldArrays& a, int
 // 1. actions, clipped to [-1, 1] and kept for the observation, -> ctrl and base_wrench rows
 template <class B>
 BIDEX_HD void world_apply(const typename B::Program& p, const WorldArrays& a, int w) {
+  if (a.held[w]) return;  // its actions are ignored
   SlotState& st = a.state[w];
   const float* in = a.actions + static_cast<int64_t>(w) * a.act_stride;
   for (int k = 0; k < a.act_dim; ++k) {
@@ -87,6 +95,12 @@ BIDEX_HD void world_apply(const typename B::Program& p, const WorldArrays& a, in
 // or final observation are not finite now (tasks/README.md, "Faults").
 template <class B>
 BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a, int w) {
+  if (a.held[w]) {  // held at its end (autoreset off): nothing is paid, nothing ends
+    a.reward[w] = 0.0f;
+    for (int k = 0; k < a.nterms; ++k) a.terms[static_cast<int64_t>(w) * a.nterms + k] = 0.0f;
+    a.terminated[w] = a.truncated[w] = a.faulted[w] = 0;
+    return;
+  }
   SlotState& st = a.state[w];
   bool faulted = a.fault[w] != 0 || st.nonfinite_obs;
   float tv[kMaxTerms] = {};
@@ -135,7 +149,13 @@ BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a,
     a.done_terminated[w] += term;
     a.done_truncated[w] += trunc;
     a.done_faults[w] += faulted;
-    a.reset[w] = 1;
+    if (a.autoreset) {
+      a.reset[w] = 1;
+    } else {  // held: its observation stays the final one
+      a.held[w] = 1;
+      float* o = a.obs + static_cast<int64_t>(w) * a.obs_dim;
+      for (int i = 0; i < a.obs_dim; ++i) o[i] = fo[i];
+    }
   }
 }
 
@@ -144,6 +164,13 @@ BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a,
 template <class B>
 BIDEX_HD void world_reset(const typename B::Program& p, const WorldArrays& a, int w) {
   if (!a.reset[w]) return;
+  if (a.held[w] && !a.clearing) return;  // a held world the fault check marked waits
+  if (a.clearing) {
+    a.held[w] = 0;
+    a.reward[w] = 0.0f;
+    for (int k = 0; k < a.nterms; ++k) a.terms[static_cast<int64_t>(w) * a.nterms + k] = 0.0f;
+    a.terminated[w] = a.truncated[w] = a.success[w] = a.faulted[w] = 0;
+  }
   SlotRng& rng = a.rng[w];
   rng.rekey(rng.episode + 1);
   SlotState& st = a.state[w];
@@ -157,6 +184,7 @@ BIDEX_HD void world_reset(const typename B::Program& p, const WorldArrays& a, in
 // next step
 template <class B>
 BIDEX_HD void world_observe(const typename B::Program& p, const WorldArrays& a, int w) {
+  if (a.held[w]) return;  // its final observation stays
   float* o = a.obs + static_cast<int64_t>(w) * a.obs_dim;
   SlotState& st = a.state[w];
   B::observe(p, world_rows(a, w), st, o);

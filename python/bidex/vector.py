@@ -5,7 +5,7 @@ taskpack::TaskPack on the CPU (every world in one call of the core's parallel lo
 released; numpy arrays) or taskpack::WarpPack on the GPU (MuJoCo Warp; torch tensors over the
 pack's own device rows). By default worlds reset inside the step that ends their episode
 (Gymnasium's SAME_STEP autoreset) and ``infos["final_obs"]`` holds the observation each finished
-world ended on; NEXT_STEP and DISABLED are options on the CPU.
+world ended on; NEXT_STEP and DISABLED are options.
 """
 from __future__ import annotations
 
@@ -202,10 +202,6 @@ class BidexVectorEnv(VectorEnv):
         self._build(seed)
         p = self._pack
         self.device = p.device
-        if self.autoreset_mode != AutoresetMode.SAME_STEP and p.device != "cpu":
-            raise ValueError(f"autoreset_mode: expected SAME_STEP on device {p.device!r} (the GPU "
-                             f"pack resets worlds within the step; NEXT_STEP and DISABLED run on "
-                             f"the CPU), got {self.autoreset_mode.name}")
         # copies (numpy's default) on the CPU; on a GPU the pack's own rows, overwritten by the
         # next step, unless copy=True
         self._copy = (p.device == "cpu") if copy is None else bool(copy)
@@ -263,7 +259,7 @@ class BidexVectorEnv(VectorEnv):
     def _build(self, seed):
         self._pack = self._factory(seed)
         self._core = _HostCore(self._pack) if self._pack.device == "cpu" else _DeviceCore(self._pack)
-        if self.autoreset_mode != AutoresetMode.SAME_STEP and self._pack.device == "cpu":
+        if self.autoreset_mode != AutoresetMode.SAME_STEP:
             self._pack.set_autoreset(False)
         self._fresh = True  # a new pack has started its first episodes: reset() takes them
 
@@ -473,8 +469,7 @@ def make_vec(task: str, num_envs: int = 1, *, device: str = "cpu", seed: int = 0
     - ``copy``: return copies or the core's own buffers, which the next step overwrites
       (read-only numpy views on the CPU). Default: copies on the CPU, the buffers on a GPU.
     - ``autoreset_mode``: ``gymnasium.vector.AutoresetMode`` (or its name): SAME_STEP (default),
-      NEXT_STEP, or DISABLED with ``reset(options={"reset_mask": mask})``; the last two on the
-      CPU.
+      NEXT_STEP, or DISABLED with ``reset(options={"reset_mask": mask})``.
     - ``render_mode``: "rgb_array" for ``render()``, pictures of ``render_worlds`` at
       ``render_size`` (width, height), on the CPU.
     """

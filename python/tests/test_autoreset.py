@@ -1,26 +1,34 @@
-"""Gymnasium's three autoreset modes on the CPU core, each against the SAME_STEP env of the same
-seed and actions (python/README.md); the meta-RL task assignment of a goal suite."""
+"""Gymnasium's three autoreset modes, each against the SAME_STEP env of the same seed and
+actions, on the CPU pack and on the GPU pack's code (Warp's CPU device, with the task whose
+kernels the C++ tests compile) (python/README.md); the meta-RL task assignment of a goal suite."""
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import bidex
+from bidex import _bidex
 
 AutoresetMode = gym.vector.AutoresetMode
+GPU_PATH = pytest.param("warp-cpu", marks=pytest.mark.skipif(
+    bool(_bidex.gpu_backend_missing()), reason="this build has no GPU backend"))
 
 
 def actions(env, rng):
     return rng.uniform(-1, 1, env.action_space.shape).astype(np.float32)
 
 
-def test_next_step_hands_back_the_last_observation_then_resets_in_the_next_step():
+@pytest.mark.parametrize("device", ["cpu", GPU_PATH])
+def test_next_step_hands_back_the_last_observation_then_resets_in_the_next_step(device):
     # One world, episodes of 6 steps, random actions (catches may also drop: terminations).
     # SAME_STEP ends and restarts a world in one step; NEXT_STEP returns the last observation
     # and restarts the world in the next step, which ignores its action and returns reward 0,
     # no flags and the new episode's first observation: the same values, one step later
-    kw = dict(seed=3, threads=1, overrides={"episode_length": 6})
-    same = bidex.make_vec("catch_underarm", 1, **kw)
-    nxt = bidex.make_vec("catch_underarm", 1, autoreset_mode="next_step", **kw)
+    # fewer steps on Warp's CPU device (a step of its one world takes about 0.1 s there)
+    task, steps, least = (("catch_underarm", 40, 5) if device == "cpu"
+                          else ("catch_underarm_raise", 14, 2))
+    kw = dict(seed=3, overrides={"episode_length": 6}, device=device)
+    same = bidex.make_vec(task, 1, **kw)
+    nxt = bidex.make_vec(task, 1, autoreset_mode="next_step", **kw)
     assert nxt.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     assert bidex.BidexVectorEnv.metadata["autoreset_mode"] == AutoresetMode.SAME_STEP
     o1, _ = same.reset()
@@ -28,7 +36,7 @@ def test_next_step_hands_back_the_last_observation_then_resets_in_the_next_step(
     assert np.array_equal(o1, o2)
     rng = np.random.default_rng(2)
     ends = 0
-    for t in range(40):
+    for t in range(steps):
         a = actions(same, rng)
         o1, r1, te1, tr1, i1 = same.step(a)
         o2, r2, te2, tr2, i2 = nxt.step(a)
@@ -38,25 +46,28 @@ def test_next_step_hands_back_the_last_observation_then_resets_in_the_next_step(
             assert np.array_equal(o1, o2)
             continue
         ends += 1
-        assert np.array_equal(o2, i1["final_obs"])           # the episode's last observation
+        assert np.array_equal(o2[0], i1["final_obs"][0])     # the episode's last observation
         assert i2["_episode"][0] and i2["episode"]["r"][0] == i1["episode"]["r"][0]
         assert i2["episode"]["l"][0] == i1["episode"]["l"][0]
         o3, r3, te3, tr3, i3 = nxt.step(np.full_like(a, np.nan))  # ignored: no fault
-        assert np.array_equal(o3, o1)                         # the new episode's first
+        assert np.array_equal(o3[0], o1[0])                   # the new episode's first
         assert r3[0] == 0 and not te3[0] and not tr3[0] and not i3["fault"][0]
         assert "_episode" not in i3
-    assert ends >= 5
+    assert ends >= least
 
 
-def test_disabled_holds_ended_worlds_until_a_masked_reset():
-    kw = dict(seed=5, threads=1, overrides={"episode_length": 5})
-    same = bidex.make_vec("catch_abreast", 4, **kw)
-    off = bidex.make_vec("catch_abreast", 4, autoreset_mode=AutoresetMode.DISABLED, **kw)
+@pytest.mark.parametrize("device", ["cpu", GPU_PATH])
+def test_disabled_holds_ended_worlds_until_a_masked_reset(device):
+    task, steps, least = (("catch_abreast", 23, 12) if device == "cpu"
+                          else ("catch_underarm_raise", 11, 8))
+    kw = dict(seed=5, overrides={"episode_length": 5}, device=device)
+    same = bidex.make_vec(task, 4, **kw)
+    off = bidex.make_vec(task, 4, autoreset_mode=AutoresetMode.DISABLED, **kw)
     same.reset()
     off.reset()
     rng = np.random.default_rng(4)
     ends = 0
-    for t in range(23):
+    for t in range(steps):
         a = actions(same, rng)
         o1, r1, te1, tr1, i1 = same.step(a)
         o2, r2, te2, tr2, i2 = off.step(a)
@@ -69,7 +80,7 @@ def test_disabled_holds_ended_worlds_until_a_masked_reset():
         ends += done.sum()
         o3, info = off.reset(options={"reset_mask": done})
         assert info == {} and np.array_equal(o3, o1)   # every row as the autoreset's
-    assert ends >= 4 * 3
+    assert ends >= least
     # a world left ended holds its last observation, earns nothing and raises no flag
     for _ in range(5):
         o, *_ = off.step(actions(off, rng))

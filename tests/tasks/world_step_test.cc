@@ -52,7 +52,7 @@ struct OneWorld {
   SlotState state{};
   SlotRng rng = SlotRng::make(1, 0, 0);
   float obs[kObs] = {}, final_obs[kObs] = {}, reward = 0, terms[kTerms] = {};
-  uint8_t terminated = 0, truncated = 0, success = 0, faulted = 0;
+  uint8_t terminated = 0, truncated = 0, success = 0, faulted = 0, held = 0;
   double ep_return = 0, ep_terms[kTerms] = {}, done_return = 0, done_length = 0,
          done_terms[kTerms] = {};
   int64_t done_episodes = 0, done_successes = 0, done_terminated = 0, done_truncated = 0,
@@ -85,6 +85,7 @@ struct OneWorld {
     a.done_terminated = &done_terminated;
     a.done_truncated = &done_truncated;
     a.done_faults = &done_faults;
+    a.held = &held;
     a.obs_dim = kObs;
     a.nterms = kTerms;
     a.episode_length = episode_length;
@@ -193,4 +194,54 @@ TEST_CASE("a non-finite final observation faults the finishing world", "[tasks][
   CHECK(ok.final_obs[1] == 5.0f);
   CHECK(ok.reward == 2.0f);
   CHECK(ok.done_faults == 0);
+}
+
+// Autoreset off (Gymnasium's NEXT_STEP and DISABLED modes on the GPU path): the finishing world
+// is held, not marked for the reset pass; its observation is the final one; later steps pay
+// nothing and end nothing and leave its observation; a reset pass outside the step (clearing)
+// restarts it and clears its outputs.
+TEST_CASE("with autoreset off a finished world is held until a clearing reset pass",
+          "[tasks][reset]") {
+  int evals = 0;
+  TestBodies::Program p{1.0f, 0.5f, &evals};
+  OneWorld w(2);
+  w.a.autoreset = 0;
+  w.evaluate(p);
+  CHECK(w.reward == 2.0f);
+  CHECK(w.held == 0);
+  w.evaluate(p);  // the time limit
+  CHECK(w.truncated == 1);
+  CHECK(w.held == 1);
+  CHECK(w.reset == 0);  // not marked: the step's reset pass leaves it
+  CHECK(w.obs[0] == 0.5f);
+  CHECK(w.obs[1] == 5.0f);  // the final observation (7 clipped to 5)
+  CHECK(w.done_episodes == 1);
+  w.obs[1] = -1.0f;  // a held world's observation is left as it is
+  for (int i = 0; i < 2; ++i) {
+    w.evaluate(p);
+    w.observe(p);
+    CHECK(w.reward == 0.0f);
+    CHECK(w.terms[0] == 0.0f);
+    CHECK(w.truncated == 0);
+    CHECK(w.terminated == 0);
+    CHECK(w.obs[1] == -1.0f);
+  }
+  CHECK(evals == 2);  // the task's own evaluation ran only while the episode lasted
+  CHECK(w.done_episodes == 1);
+  // the step's reset pass (a fault check marked it) leaves it held; a clearing one restarts it
+  w.reset = 1;
+  world_reset<TestBodies>(p, w.a, 0);
+  CHECK(w.held == 1);
+  w.reward = 3.0f;
+  w.a.clearing = 1;
+  world_reset<TestBodies>(p, w.a, 0);
+  CHECK(w.held == 0);
+  CHECK(w.reward == 0.0f);
+  CHECK(w.state.progress == 0);
+  w.a.clearing = 0;
+  w.observe(p);
+  CHECK(w.obs[1] == 5.0f);
+  w.evaluate(p);
+  CHECK(evals == 3);
+  CHECK(w.reward == 2.0f);
 }
