@@ -3,8 +3,11 @@
 # fit one device call each:
 #   bench/python_gpu_run.sh build PARTS WHEELS
 #       the Python wheels in WHEELS (nanobind, gymnasium and its dependencies, for the machine's
-#       python3: `pip download` them beforehand) into that python3, then the bundle's parts
-#       joined and bidex and its Python module built against it (scripts/offline-build.sh)
+#       python3) into that python3, then the bundle's parts joined and bidex and its Python
+#       module built against it (scripts/offline-build.sh). WHEELS, where pip works (numpy is
+#       installed from it only where missing; the GPU machine has it):
+#         pip download --only-binary=:all: --python-version 3.12 --platform manylinux_2_28_x86_64 \
+#           --platform any -d .whl/py312 nanobind==3.1.0 gymnasium==1.4.0
 #   bench/python_gpu_run.sh speed OUTDIR TASK WORLDS
 #       `bidex bench warp`'s task step, the Python loop (bench/python_speed.py), then bench warp
 #       again, on TASK at WORLDS worlds: OUTDIR/speed.json with the ratio of the Python loop to
@@ -17,7 +20,11 @@
 # BIDEX_COMMIT names the commit in the results; BIDEX_GPU_BUILD is the build (default build-gpu).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-stage=${1:?stage: build, speed, ppo or wait}
+stage=${1:-}
+if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
+  sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'
+  exit 0
+fi
 build=${BIDEX_GPU_BUILD:-build-gpu}
 export PYTHONPATH=$PWD/$build/python${PYTHONPATH:+:$PYTHONPATH}
 case "$stage" in
@@ -84,7 +91,7 @@ wait)
   tail -3 "$out/ppo/train.log"
   ;;
 *)
-  sed -n '2,22p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'
   exit 2
   ;;
 esac
