@@ -22,7 +22,7 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:-}
 if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
-  sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'
+  sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'
   exit 0
 fi
 build=${BIDEX_GPU_BUILD:-build-gpu}
@@ -91,7 +91,7 @@ wait)
   tail -3 "$out/ppo/train.log"
   ;;
 *)
-  sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'
+  echo "python_gpu_run.sh: unknown stage '$stage' (expected build, speed, ppo or wait; --help)" >&2
   exit 2
   ;;
 esac
