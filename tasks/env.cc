@@ -136,10 +136,15 @@ void TaskEnv::restart(int s) {
   float* o = obs.data() + static_cast<size_t>(s) * obs_dim_;
   task_->observe(t, o);
   clip_observation(o, obs_dim_, kObsClip, state_[s]);
+  clear_outputs(s);
+  success[s] = 0;
+  ended_[s] = 0;
+}
+
+void TaskEnv::clear_outputs(int s) {
   reward[s] = 0;
   std::fill_n(terms.data() + static_cast<size_t>(s) * nterms_, nterms_, 0.0f);
-  terminated[s] = truncated[s] = success[s] = fault[s] = 0;
-  ended_[s] = 0;
+  terminated[s] = truncated[s] = fault[s] = 0;
 }
 
 void TaskEnv::reset() {
@@ -247,9 +252,7 @@ void TaskEnv::begin_step(const float* actions, int stride) {
 
 void TaskEnv::step_slot(int s) {
   if (ended_[s]) {  // autoreset off: held at its end until reset_slots (obs unchanged)
-    reward[s] = 0;
-    std::fill_n(terms.data() + static_cast<size_t>(s) * nterms_, nterms_, 0.0f);
-    terminated[s] = truncated[s] = fault[s] = 0;
+    clear_outputs(s);
     return;
   }
   // 1. actions -> the slot's ctrl and base wrench rows

@@ -139,6 +139,7 @@ class TaskEnv {
  private:
   void start_episode(int s);  // task reset after the simulation's reset
   void restart(int s);        // simulation and task reset of slot s, its obs and cleared flags
+  void clear_outputs(int s);  // no reward, no terms, no end, no fault (held, or restarted)
   void post_step(int s);
 
   std::unique_ptr<Task> task_;

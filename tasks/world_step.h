@@ -74,6 +74,14 @@ BIDEX_HD inline sim::ResetRows<float> world_reset_rows(const WorldArrays& a, int
   return r;
 }
 
+// A world's step outputs of nothing: no reward, no terms, no end, no fault (a held world's
+// step, and a reset outside the step)
+BIDEX_HD inline void clear_outputs(const WorldArrays& a, int w) {
+  a.reward[w] = 0.0f;
+  for (int k = 0; k < a.nterms; ++k) a.terms[static_cast<int64_t>(w) * a.nterms + k] = 0.0f;
+  a.terminated[w] = a.truncated[w] = a.faulted[w] = 0;
+}
+
 // 1. actions, clipped to [-1, 1] and kept for the observation, -> ctrl and base_wrench rows
 template <class B>
 BIDEX_HD void world_apply(const typename B::Program& p, const WorldArrays& a, int w) {
@@ -96,9 +104,7 @@ BIDEX_HD void world_apply(const typename B::Program& p, const WorldArrays& a, in
 template <class B>
 BIDEX_HD void world_evaluate(const typename B::Program& p, const WorldArrays& a, int w) {
   if (a.held[w]) {  // held at its end (autoreset off): nothing is paid, nothing ends
-    a.reward[w] = 0.0f;
-    for (int k = 0; k < a.nterms; ++k) a.terms[static_cast<int64_t>(w) * a.nterms + k] = 0.0f;
-    a.terminated[w] = a.truncated[w] = a.faulted[w] = 0;
+    clear_outputs(a, w);
     return;
   }
   SlotState& st = a.state[w];
@@ -167,9 +173,8 @@ BIDEX_HD void world_reset(const typename B::Program& p, const WorldArrays& a, in
   if (a.held[w] && !a.clearing) return;  // a held world the fault check marked waits
   if (a.clearing) {
     a.held[w] = 0;
-    a.reward[w] = 0.0f;
-    for (int k = 0; k < a.nterms; ++k) a.terms[static_cast<int64_t>(w) * a.nterms + k] = 0.0f;
-    a.terminated[w] = a.truncated[w] = a.success[w] = a.faulted[w] = 0;
+    clear_outputs(a, w);
+    a.success[w] = 0;
   }
   SlotRng& rng = a.rng[w];
   rng.rekey(rng.episode + 1);

@@ -72,7 +72,7 @@ class BidexParallelEnv:
         if missing or extra:
             raise ValueError(f"step: actions: expected one array for each agent of "
                              f"{self.agents}, got keys {list(actions)}")
-        torch = getattr(self.env._core, "torch", None)  # a GPU env takes torch tensors
+        torch = self.env._core.torch  # a GPU env takes torch tensors
         if torch is None:
             full = np.zeros((self.num_envs, self._act_dim), np.float32)
         else:
@@ -110,7 +110,7 @@ class BidexParallelEnv:
         self.env.close()
 
     def _split(self, full):
-        torch = getattr(self.env._core, "torch", None)
+        torch = self.env._core.torch
         if torch is not None:  # the columns as index tensors on the env's device
             return {a: full[:, torch.as_tensor(c, device=full.device)]
                     for a, c in self._obs_cols.items()}

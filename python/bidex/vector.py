@@ -84,6 +84,7 @@ class _HostCore:
     """A CPU pack's rows as numpy arrays (views of the core's host vectors)."""
 
     device = "cpu"
+    torch = None  # numpy arrays, as on Warp's CPU device; a CUDA pack's core holds torch
 
     def __init__(self, pack):
         self.pack = pack
@@ -312,7 +313,7 @@ class BidexVectorEnv(VectorEnv):
         if self._needs_reset:
             raise RuntimeError("step: call reset() first")
         core = self._core
-        if core.device == "cpu" or not self._pack.on_gpu:
+        if core.torch is None:
             a = np.asarray(actions)
             if not np.issubdtype(a.dtype, np.floating):
                 raise TypeError(f"step: actions: expected a float array (float32), got dtype "
@@ -328,7 +329,7 @@ class BidexVectorEnv(VectorEnv):
             self._pack.reset_slots(held.astype(np.uint8))
         obs, reward, term, trunc, success, fault = core.rows()
         done = term | trunc
-        if core.device == "cpu" or not self._pack.on_gpu:
+        if core.torch is None:
             host_reward, host_done, host_success = reward, done, success
         else:  # the per-episode records on the host (one small copy each)
             host_reward = reward.double().cpu().numpy()
@@ -340,7 +341,7 @@ class BidexVectorEnv(VectorEnv):
         infos = {"success": success, "_success": everyone, "fault": fault, "_fault": everyone}
         if core.single:
             t = core.terms()
-            infos["terms"] = {n: t[:, k].clone() if hasattr(t, "clone") else t[:, k].copy()
+            infos["terms"] = {n: self._own(t[:, k])
                               for k, n in enumerate(self.entries[0]["reward_terms"])}
             infos["_terms"] = everyone
         if host_done.any():
@@ -430,15 +431,17 @@ class BidexVectorEnv(VectorEnv):
         return ids
 
     def _everyone(self, like):
-        if hasattr(like, "device") and not isinstance(like, np.ndarray):
-            return self._core.torch.ones(self.num_envs, dtype=self._core.torch.bool,
-                                         device=like.device)
-        return np.ones(self.num_envs, bool)
+        t = self._core.torch
+        if t is None:
+            return np.ones(self.num_envs, bool)
+        return t.ones(self.num_envs, dtype=t.bool, device=like.device)
+
+    def _own(self, view):
+        """A copy of a view of the core's buffers"""
+        return np.array(view) if self._core.torch is None else view.clone()
 
     def _out(self, view):
-        if not self._copy:
-            return view
-        return view.clone() if hasattr(view, "clone") else np.array(view)
+        return self._own(view) if self._copy else view
 
 
 def _task_config(task: str, overrides: dict) -> str:
