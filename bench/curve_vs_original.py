@@ -29,7 +29,8 @@ args = ap.parse_args()
 runs = []
 for label, path in args.run:
     rows = [r for r in csv.DictReader(open(path)) if r["return"] != ""]
-    runs.append((label, [(float(r["steps"]), float(r["return"])) for r in rows]))
+    steps = "steps" if rows and "steps" in rows[0] else "slot_steps"  # examples/ppo_torch.py's
+    runs.append((label, [(float(r[steps]), float(r["return"])) for r in rows]))
 origs = [(label, [tuple(float(x) for x in p.split(":")) for p in pts.split(",")])
          for label, pts in args.orig]
 lines = [(label, float(v)) for label, v in args.line]

@@ -16,6 +16,7 @@ import os
 import subprocess
 import sys
 import traceback
+import types
 
 import numpy as np
 import torch
@@ -29,6 +30,7 @@ import test_autoreset  # noqa: E402
 # every check on the scene whose kernels the PPO example compiled (Warp caches them on disk): a
 # new scene costs minutes of kernel compilation on the GPU machine
 TASK = "catch_abreast"
+ATOL = 0.05
 
 
 def to_numpy(x):
@@ -58,10 +60,16 @@ class NumpyView:
 
 
 def autoreset_checks():
+    """The tests, with their module's bidex.make_vec giving numpy views of CUDA envs, and its
+    comparison of two envs' values (`alike`) within ATOL: two envs on the GPU are not bitwise
+    alike (MuJoCo Warp's atomic sums), so a mode compared with SAME_STEP agrees only closely.
+    What one env holds (a held world's observation, zero rewards, flags) stays exact."""
     make = bidex.make_vec
-    test_autoreset.bidex.make_vec = (
-        lambda task, *a, **kw: NumpyView(make(TASK, *a, **kw)) if kw.get("device") == "cuda"
-        else make(task, *a, **kw))
+    shim = types.SimpleNamespace(**vars(bidex))
+    shim.make_vec = lambda task, *a, **kw: (NumpyView(make(TASK, *a, **kw))
+                                            if kw.get("device") == "cuda" else make(task, *a, **kw))
+    test_autoreset.bidex = shim
+    test_autoreset.alike = lambda x, y: np.shape(x) == np.shape(y) and np.allclose(x, y, atol=ATOL)
     names = ("test_next_step_hands_back_the_last_observation_then_resets_in_the_next_step",
              "test_disabled_holds_ended_worlds_until_a_masked_reset")
     return [(n + "[cuda]", lambda f=getattr(test_autoreset, n): f("cuda")) for n in names]
@@ -72,7 +80,7 @@ def marl_check():
     vec = bidex.make_vec(TASK, 3, seed=5, device="cuda", copy=True)
     obs, _ = marl.reset()
     full, _ = vec.reset()
-    assert torch.equal(marl.state(), full)
+    assert torch.equal(marl.state(), full)  # the same seed's first observations: exact
     gen = torch.Generator(device="cuda").manual_seed(0)
     for _ in range(20):
         a = torch.rand(vec.action_space.shape, device="cuda", generator=gen) * 2 - 1
@@ -82,10 +90,10 @@ def marl_check():
         state = marl.state().clone()
         full, r, te, tr, _ = vec.step(a)
         assert isinstance(state, torch.Tensor) and state.device.type == "cuda"
-        assert torch.equal(state, full)
+        assert torch.allclose(state, full, atol=ATOL)
         for n in marl.agents:
-            assert torch.equal(obs[n], full[:, marl.split[n]["obs_columns"]])
-            assert torch.equal(rew[n], r) and torch.equal(term[n], te)
+            assert torch.equal(obs[n], state[:, marl.split[n]["obs_columns"]])
+            assert torch.allclose(rew[n], r, atol=ATOL) and torch.equal(term[n], te)
 
 
 def main():
