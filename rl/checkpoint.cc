@@ -175,11 +175,4 @@ void read_module(torch::serialize::InputArchive& root, const std::string& name,
   load_module_checked(m, a, path, what);
 }
 
-void read_optimizer(torch::serialize::InputArchive& root, const std::string& name,
-                    torch::optim::Optimizer& o) {
-  torch::serialize::InputArchive a;
-  root.read(name, a);
-  o.load(a);
-}
-
 }  // namespace bidex::rl

@@ -54,9 +54,14 @@ void write_part(torch::serialize::OutputArchive& root, const std::string& name, 
 // Reads the module part `name` into `m`, checked as load_module_checked does.
 void read_module(torch::serialize::InputArchive& root, const std::string& name,
                  torch::nn::Module& m, const std::string& path, const std::string& what);
-// Reads the optimiser part `name` into `o`.
-void read_optimizer(torch::serialize::InputArchive& root, const std::string& name,
-                    torch::optim::Optimizer& o);
+// Reads the optimiser part `name` into `o` (a LibTorch optimiser, or FlatAdam: anything with
+// load(InputArchive&)).
+template <class Optimizer>
+void read_optimizer(torch::serialize::InputArchive& root, const std::string& name, Optimizer& o) {
+  torch::serialize::InputArchive a;
+  root.read(name, a);
+  o.load(a);
+}
 
 // A list of optimisers (one per agent, say) as the parts PREFIX_0, PREFIX_1, ...
 template <class Optimizer>

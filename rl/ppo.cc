@@ -45,16 +45,17 @@ std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
   return {adv, adv + values};
 }
 
-Ppo::Ppo(ActorCritic model, const PpoConfig& config)
-    : model_(std::move(model)), c_(config), lr_(config.lr) {
-  opt_ = std::make_unique<torch::optim::Adam>(model_->parameters(),
-                                              torch::optim::AdamOptions(c_.lr));
+void adapt_lr(const torch::Tensor& lr, const torch::Tensor& kl, double desired_kl) {
+  torch::NoGradGuard ng;
+  const auto k = kl.to(torch::kFloat64);  // compared in double, as a host read of it would be
+  const auto lower = torch::clamp_min(lr / 1.5, 1e-5);
+  const auto higher = torch::clamp_max(lr * 1.5, 1e-2);
+  const auto small = torch::logical_and(k < 0.5 * desired_kl, k > 0.0);
+  lr.copy_(torch::where(k > 2.0 * desired_kl, lower, torch::where(small, higher, lr)));
 }
 
-void Ppo::set_lr(double lr) {
-  lr_ = lr;
-  for (auto& g : opt_->param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
-}
+Ppo::Ppo(ActorCritic model, const PpoConfig& config)
+    : model_(std::move(model)), c_(config), opt_(model_->parameters(), c_.lr) {}
 
 UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   timer_.start();
@@ -79,10 +80,10 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   const auto log_std_old = r.log_std.detach();
   timer_.mark("prepare");
   const int64_t mb = B / c_.minibatches;
-  UpdateStats st;
   int n = 0;
-  // policy loss, value loss, entropy, clip fraction: summed on the device, read once at the end
-  auto sums = torch::zeros({4}, torch::TensorOptions().dtype(torch::kFloat64).device(nobs.device()));
+  // policy loss, value loss, entropy, clip fraction, KL: summed on the device, read once at the
+  // end with the learning rate
+  auto sums = torch::zeros({5}, torch::TensorOptions().dtype(torch::kFloat64).device(nobs.device()));
   for (int epoch = 0; epoch < c_.epochs; ++epoch) {
     auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(nobs.device()));
     for (int k = 0; k < c_.minibatches; ++k) {
@@ -93,16 +94,12 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
       auto log_std = model_->log_std();
       auto logp = gaussian_log_prob(a, mu, log_std);
       timer_.mark("forward");
-      double kl = 0;
+      torch::Tensor kl;
       {
         torch::NoGradGuard ng;
-        kl = gaussian_kl(mu_old.index_select(0, idx), log_std_old, mu, log_std).mean().item<double>();
+        kl = gaussian_kl(mu_old.index_select(0, idx), log_std_old, mu, log_std).mean();
       }
-      timer_.count_syncs(1);  // the KL read back for the adaptive learning rate
-      if (c_.schedule == "adaptive") {
-        if (kl > 2.0 * c_.desired_kl) set_lr(std::max(1e-5, lr_ / 1.5));
-        else if (kl < 0.5 * c_.desired_kl && kl > 0.0) set_lr(std::min(1e-2, lr_ * 1.5));
-      }
+      if (c_.schedule == "adaptive") adapt_lr(opt_.lr_tensor(), kl, c_.desired_kl);
       timer_.mark("kl_check");
       auto adv_mb = advantages.index_select(0, idx);
       auto ratio = torch::exp(logp - logp_old.index_select(0, idx));
@@ -120,34 +117,33 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
       auto entropy = gaussian_entropy(log_std);
       auto loss = policy_loss + c_.value_coef * value_loss - c_.entropy_coef * entropy;
       timer_.mark("forward");
-      opt_->zero_grad();
+      opt_.zero_grad();
       loss.backward();
       timer_.mark("backward");
-      torch::nn::utils::clip_grad_norm_(model_->parameters(), c_.max_grad_norm);
-      timer_.count_syncs(1);  // LibTorch's clip_grad_norm_ returns the norm as a double
+      opt_.clip_grad_norm(c_.max_grad_norm);
       timer_.mark("clip_grad");
-      opt_->step();
+      opt_.step();
       timer_.mark("optimizer");
       {
         torch::NoGradGuard ng;
         auto clipped = ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean();
-        sums += torch::stack({policy_loss, value_loss, entropy, clipped}).to(torch::kFloat64);
+        sums += torch::stack({policy_loss, value_loss, entropy, clipped, kl}).to(torch::kFloat64);
       }
       timer_.mark("stats");
-      st.kl += kl;
       ++n;
     }
   }
-  if (n > 0) {
-    auto m = (sums / n).to(torch::kCPU);
-    timer_.count_syncs(1);
-    st.policy_loss = m[0].item<double>();
-    st.value_loss = m[1].item<double>();
-    st.entropy = m[2].item<double>();
-    st.clip_fraction = m[3].item<double>();
-    st.kl /= n;
-  }
-  st.lr = lr_;
+  const auto read =
+      torch::cat({sums / std::max(n, 1), opt_.lr_tensor().reshape({1})}).to(torch::kCPU);
+  timer_.count_syncs(1);  // the statistics and the learning rate, once
+  const auto m = read.accessor<double, 1>();
+  UpdateStats st;
+  st.policy_loss = m[0];
+  st.value_loss = m[1];
+  st.entropy = m[2];
+  st.clip_fraction = m[3];
+  st.kl = m[4];
+  st.lr = m[5];
   timer_.mark("read_stats");
   return st;
 }
@@ -186,17 +182,13 @@ class PpoAlgorithm final : public GaussianOnPolicy {
 
   void save(torch::serialize::OutputArchive& root) override {
     write_part(root, "model", *model_);
-    write_part(root, "optimizer", ppo_->optimizer());
-    root.write("lr", torch::tensor({ppo_->lr()}, torch::kFloat64));
+    write_part(root, "optimizer", ppo_->optimizer());  // its learning rate included
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
       read_module(root, "model", *model_, path, "this run's networks");
       read_optimizer(root, "optimizer", ppo_->optimizer());
-      torch::Tensor lr;
-      root.read("lr", lr);
-      ppo_->set_lr(lr.item<double>());
     });
   }
 

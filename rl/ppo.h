@@ -1,6 +1,8 @@
 // PPO (clipped surrogate, optional clipped value loss, KL-adaptive learning rate, minibatches,
 // epochs, gradient-norm clipping, entropy bonus) over a rollout of `horizon` steps of every
-// slot, with GAE advantages. Everything lives on the device of the actor-critic.
+// slot, with GAE advantages. Everything lives on the device of the actor-critic, and the epochs
+// never wait for it: the optimiser (FlatAdam), the gradient clip and the adaptive learning rate
+// run on the device, and the statistics are read back once per update.
 #pragma once
 
 #include <memory>
@@ -9,6 +11,7 @@
 
 #include "rl/algorithm.h"
 #include "rl/config.h"
+#include "rl/flat_adam.h"
 #include "rl/policy.h"
 #include "rl/stage_timer.h"
 
@@ -42,6 +45,11 @@ std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
 torch::Tensor clipped_surrogate(const torch::Tensor& ratio, const torch::Tensor& advantages,
                                 double clip);
 
+// PPO's KL-adaptive learning rate, on the device (no read back): `lr` (0-dim float64, updated in
+// place) / 1.5, at least 1e-5, where the mean KL `kl` (0-dim) of a minibatch exceeds
+// 2 desired_kl; x 1.5, at most 1e-2, where it is positive and below desired_kl / 2.
+void adapt_lr(const torch::Tensor& lr, const torch::Tensor& kl, double desired_kl);
+
 struct UpdateStats {
   double policy_loss = 0, value_loss = 0, entropy = 0, kl = 0, lr = 0, clip_fraction = 0;
 };
@@ -53,25 +61,23 @@ class Ppo {
   // Runs the epochs and minibatches over `r`, `last_value` = V(obs after the rollout).
   UpdateStats update(const Rollout& r, const torch::Tensor& last_value);
 
-  torch::optim::Adam& optimizer() { return *opt_; }
-  double lr() const { return lr_; }
-  void set_lr(double lr);
+  // the optimiser, which holds the adaptive learning rate
+  FlatAdam& optimizer() { return opt_; }
   // Times update()'s stages from now on (gae, prepare, forward, kl_check, backward, clip_grad,
-  // optimizer, stats, read_stats) and counts its host synchronisations.
+  // optimizer, stats, read_stats) and counts its host synchronisations (one: read_stats).
   StageTimer& timer() { return timer_; }
 
  private:
   ActorCritic model_;
   PpoConfig c_;
-  std::unique_ptr<torch::optim::Adam> opt_;
-  double lr_;
+  FlatAdam opt_;
   StageTimer timer_;
 };
 
 // PPO behind the learning core's Algorithm interface (mtppo is the same on a suite's pack):
 // `horizon` steps into a Rollout, bootstrapping time limits from the critic, then Ppo::update.
-// Its checkpoint state is the actor-critic with its normalisers ("model"), Adam ("optimizer")
-// and the adaptive learning rate ("lr").
+// Its checkpoint state is the actor-critic with its normalisers ("model") and FlatAdam
+// ("optimizer", the adaptive learning rate included).
 std::unique_ptr<Algorithm> make_ppo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device);
 

@@ -1,10 +1,15 @@
 // The building blocks of PPO against hand-worked values: GAE with episode ends, the running
 // normaliser, the Gaussian's density, entropy and KL, and PPO's update moving a policy towards
-// better actions.
+// better actions. The update on the device (FlatAdam, the KL-adaptive rate without a read back)
+// against the update as it ran with LibTorch's Adam and the host's rule, and a PPO run saved and
+// loaded against the unbroken run.
 #include "tests/rl/rl_fixture.h"
 
+#include <algorithm>
 #include <cmath>
+#include <sstream>
 
+#include "rl/algorithm.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
 
@@ -157,4 +162,262 @@ TEST_CASE("the KL-adaptive learning rate falls on large steps and rises on small
     auto st = ppo.update(rollout(m, 0.01), torch::zeros({N}));  // KL ~ 8e-5 < 0.008
     CHECK(st.lr == Approx(c.lr * 1.5));
   }
+}
+
+TEST_CASE("the device's adaptive learning rate follows the host rule", "[rl][ppo]") {
+  const double d = 0.016;
+  // PPO's rule as it ran on the host: the KL read back as a double
+  auto host = [&](double lr, float kl) {
+    if (kl > 2.0 * d) return std::max(1e-5, lr / 1.5);
+    if (kl < 0.5 * d && kl > 0.0) return std::min(1e-2, lr * 1.5);
+    return lr;
+  };
+  const float twice = float(2.0 * d), half = float(0.5 * d);
+  // nextafter: the floats on either side of the thresholds as the double compares them
+  const std::vector<float> kls = {0.0f,
+                                  twice,
+                                  std::nextafter(twice, 1.0f),
+                                  std::nextafter(twice, 0.0f),
+                                  half,
+                                  std::nextafter(half, 0.0f),
+                                  std::nextafter(half, 1.0f),
+                                  1e-30f,
+                                  -1e-3f,
+                                  0.02f,
+                                  1.0f,
+                                  std::nanf("")};
+  for (double start : {3e-4, 1.2e-5, 1e-5, 8e-3, 1e-2}) {
+    for (float kl : kls) {
+      auto lr = torch::scalar_tensor(start, torch::kFloat64);
+      rl::adapt_lr(lr, torch::scalar_tensor(kl, torch::kFloat32), d);
+      INFO("lr " << start << " kl " << kl);
+      CHECK(lr.item<double>() == host(start, kl));
+    }
+  }
+  // a sequence, each step from the last
+  auto lr = torch::scalar_tensor(3e-4, torch::kFloat64);
+  double want = 3e-4;
+  for (int k = 0; k < 40; ++k) {
+    const float kl = k < 20 ? 0.5f : 1e-4f;  // down to the floor, then up to the cap
+    rl::adapt_lr(lr, torch::scalar_tensor(kl, torch::kFloat32), d);
+    want = host(want, kl);
+    CHECK(lr.item<double>() == want);
+  }
+  CHECK(want == 1e-2);
+}
+
+namespace {
+
+// PPO's update as it ran before FlatAdam, written out independently: LibTorch's Adam, its
+// clip_grad_norm_, and the KL read back each minibatch for the adaptive learning rate on the
+// host. Keeps Adam and the rate across updates; records the rate of every minibatch.
+struct ReferencePpo {
+  ReferencePpo(rl::ActorCritic model, const rl::PpoConfig& config)
+      : m(model), c(config), opt(m->parameters(), torch::optim::AdamOptions(c.lr)), lr(c.lr) {}
+
+  rl::UpdateStats update(const rl::Rollout& r, const torch::Tensor& last_value) {
+    auto [adv, ret] = rl::gae(r.rewards, r.values, r.dones, last_value, c.gamma, c.lambda);
+    const int64_t B = r.horizon * r.nslot;
+    auto nobs = r.nobs.reshape({B, -1}), actions = r.actions.reshape({B, -1});
+    auto logp_old = r.logp.reshape({B}), mu_old = r.mu.reshape({B, -1});
+    auto values_old = r.values.reshape({B}), returns = ret.reshape({B});
+    auto advantages = adv.reshape({B});
+    advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
+    torch::Tensor targets = returns, values_old_raw = values_old;
+    if (m->uses_value_norm()) {
+      m->value_norm()->update(returns.unsqueeze(1));
+      torch::NoGradGuard ng;
+      targets = m->value_norm()->normalize(returns.unsqueeze(1)).squeeze(1);
+      values_old_raw = m->value_norm()->normalize(values_old.unsqueeze(1)).squeeze(1);
+    }
+    const int64_t mb = B / c.minibatches;
+    rl::UpdateStats st;
+    int n = 0;
+    for (int epoch = 0; epoch < c.epochs; ++epoch) {
+      auto perm = torch::randperm(B, torch::kLong);
+      for (int k = 0; k < c.minibatches; ++k) {
+        auto idx = perm.narrow(0, k * mb, mb);
+        auto o = nobs.index_select(0, idx);
+        auto mu = m->mean(o);
+        auto log_std = m->log_std();
+        auto logp = rl::gaussian_log_prob(actions.index_select(0, idx), mu, log_std);
+        double kl = 0;
+        {
+          torch::NoGradGuard ng;
+          kl = rl::gaussian_kl(mu_old.index_select(0, idx), r.log_std, mu, log_std)
+                   .mean()
+                   .item<double>();
+        }
+        if (kl > 2.0 * c.desired_kl) lr = std::max(1e-5, lr / 1.5);
+        else if (kl < 0.5 * c.desired_kl && kl > 0.0) lr = std::min(1e-2, lr * 1.5);
+        lrs.push_back(lr);
+        for (auto& g : opt.param_groups())
+          static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
+        auto ratio = torch::exp(logp - logp_old.index_select(0, idx));
+        auto policy_loss = rl::clipped_surrogate(ratio, advantages.index_select(0, idx), c.clip);
+        auto v = m->raw_value(o);
+        auto tgt = targets.index_select(0, idx);
+        auto v_old = values_old_raw.index_select(0, idx);
+        auto v_clipped = v_old + torch::clamp(v - v_old, -c.value_clip, c.value_clip);
+        auto value_loss = torch::max((v - tgt).pow(2), (v_clipped - tgt).pow(2)).mean();
+        auto entropy = rl::gaussian_entropy(log_std);
+        auto loss = policy_loss + c.value_coef * value_loss - c.entropy_coef * entropy;
+        opt.zero_grad();
+        loss.backward();
+        norms.push_back(torch::nn::utils::clip_grad_norm_(m->parameters(), c.max_grad_norm));
+        opt.step();
+        st.policy_loss += policy_loss.item<double>();
+        st.value_loss += value_loss.item<double>();
+        st.entropy += entropy.item<double>();
+        st.clip_fraction +=
+            ((ratio - 1.0).abs() > c.clip).to(torch::kFloat32).mean().item<double>();
+        st.kl += kl;
+        ++n;
+      }
+    }
+    for (double* s : {&st.policy_loss, &st.value_loss, &st.entropy, &st.clip_fraction, &st.kl})
+      *s /= n;
+    st.lr = lr;
+    return st;
+  }
+
+  rl::ActorCritic m;
+  rl::PpoConfig c;
+  torch::optim::Adam opt;
+  double lr;
+  std::vector<double> lrs, norms;
+};
+
+// A rollout of the policy `m` with its means moved by noise (a behaviour policy near it, so
+// that the KL varies), random rewards and episode ends.
+rl::Rollout noisy_rollout(rl::ActorCritic& m, int64_t T, int64_t N, int64_t D, int64_t A,
+                          double noise) {
+  rl::Rollout r(T, N, D, A, torch::Device(torch::kCPU));
+  torch::NoGradGuard ng;
+  r.log_std.copy_(m->log_std());
+  auto obs = torch::randn({T, N, D});
+  auto mu = m->mean(obs) + noise * torch::randn({T, N, A});
+  auto a = mu + torch::exp(r.log_std) * torch::randn({T, N, A});
+  r.nobs.copy_(obs);
+  r.actions.copy_(a);
+  r.mu.copy_(mu);
+  r.values.copy_(m->value(obs));
+  r.logp.copy_(rl::gaussian_log_prob(a, mu, r.log_std));
+  r.rewards.copy_(torch::randn({T, N}));
+  r.dones.copy_((torch::rand({T, N}) < 0.1).to(torch::kFloat32));
+  return r;
+}
+
+double max_abs_diff(rl::ActorCritic& a, rl::ActorCritic& b) {
+  double worst = 0;
+  auto pa = a->parameters(), pb = b->parameters();
+  for (size_t k = 0; k < pa.size(); ++k)
+    worst = std::max(worst, (pa[k] - pb[k]).abs().max().item<double>());
+  return worst;
+}
+
+}  // namespace
+
+TEST_CASE("PPO's update equals the update with LibTorch's Adam and the host's KL rule",
+          "[rl][ppo]") {
+  rl::PpoConfig c;
+  c.hidden = {16};
+  c.epochs = 3;
+  c.minibatches = 4;
+  c.obs_norm = false;
+  c.value_norm = true;
+  c.clip_value_loss = true;
+  c.entropy_coef = 0.01;
+  c.lr = 3e-3;
+  c.desired_kl = 0.004;
+  c.max_grad_norm = 1.5;
+  const int64_t T = 4, N = 32, D = 3, A = 2;
+  torch::manual_seed(11);
+  rl::ActorCritic m(D, A, c);
+  torch::manual_seed(11);
+  rl::ActorCritic ref_m(D, A, c);
+  rl::Ppo ppo(m, c);
+  ReferencePpo ref(ref_m, c);
+  REQUIRE(max_abs_diff(m, ref_m) == 0);
+  for (int u = 0; u < 3; ++u) {
+    torch::manual_seed(20 + u);
+    const auto r = noisy_rollout(ref_m, T, N, D, A, u == 0 ? 0.3 : 0.02);
+    const auto last = torch::randn({N});
+    torch::manual_seed(30 + u);  // the same minibatches
+    const auto st = ppo.update(r, last);
+    torch::manual_seed(30 + u);
+    const auto want = ref.update(r, last);
+    INFO("update " << u);
+    CHECK(max_abs_diff(m, ref_m) < 1e-6);  // float rounding (3e-8 seen); a step moves ~lr
+    CHECK(st.policy_loss == Approx(want.policy_loss).epsilon(1e-5).margin(1e-7));
+    CHECK(st.value_loss == Approx(want.value_loss).epsilon(1e-5));
+    CHECK(st.entropy == Approx(want.entropy).epsilon(1e-5));
+    CHECK(st.kl == Approx(want.kl).epsilon(1e-4).margin(1e-9));
+    CHECK(st.clip_fraction == Approx(want.clip_fraction).margin(1e-9));
+    CHECK(st.lr == Approx(want.lr).epsilon(1e-12));
+  }
+  // the rate fell and rose (up to its cap), and the clip bound and did not
+  bool fell = false, rose = false;
+  for (size_t k = 1; k < ref.lrs.size(); ++k) {
+    fell = fell || ref.lrs[k] < ref.lrs[k - 1];
+    rose = rose || ref.lrs[k] > ref.lrs[k - 1];
+  }
+  CHECK(fell);
+  CHECK(rose);
+  CHECK(*std::max_element(ref.lrs.begin(), ref.lrs.end()) == 1e-2);
+  CHECK(*std::max_element(ref.norms.begin(), ref.norms.end()) > c.max_grad_norm);
+  CHECK(*std::min_element(ref.norms.begin(), ref.norms.end()) < c.max_grad_norm);
+  // no host synchronisation inside the epochs: one read of the statistics per update
+  ppo.timer().enable(torch::kCPU);
+  torch::manual_seed(40);
+  ppo.update(noisy_rollout(m, T, N, D, A, 0.02), torch::zeros({N}));
+  CHECK(ppo.timer().totals().at("host_syncs") == 1);
+}
+
+TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]") {
+  rl::TrainConfig tc;
+  tc.ppo.hidden = {16};
+  tc.ppo.horizon = 4;
+  tc.ppo.epochs = 2;
+  tc.ppo.minibatches = 2;
+  const int64_t N = 8, D = 3, A = 2;
+  auto make = [&](uint64_t seed) {
+    torch::manual_seed(seed);
+    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
+  };
+  auto run_update = [&](rl::Algorithm& alg, uint64_t seed) {
+    torch::manual_seed(seed);
+    for (int t = 0; t < alg.steps_per_update(); ++t) {
+      alg.act(torch::randn({N, D}));
+      rl::Transition tr;
+      tr.obs = torch::randn({N, D});
+      tr.reward = torch::randn({N});
+      tr.done = (torch::rand({N}) < 0.2).to(torch::kFloat32);
+      tr.final_ids = torch::empty({0}, torch::kLong);
+      tr.final_obs = torch::empty({0, D});
+      alg.observe(tr);
+    }
+    return alg.update(torch::randn({N, D}));
+  };
+  auto a = make(1);
+  run_update(*a, 10);
+  run_update(*a, 11);
+  torch::serialize::OutputArchive out;
+  a->save(out);
+  std::ostringstream bytes;
+  out.save_to(bytes);
+  auto b = make(2);
+  {
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    b->load(in, "memory");
+  }
+  for (uint64_t seed : {12, 13}) {
+    const auto ma = run_update(*a, seed), mb = run_update(*b, seed);
+    CHECK(ma == mb);
+  }
+  torch::manual_seed(14);
+  const auto obs = torch::randn({N, D});
+  CHECK(torch::equal(a->actor(obs), b->actor(obs)));
 }

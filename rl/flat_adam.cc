@@ -1,0 +1,132 @@
+#include "rl/flat_adam.h"
+
+#include <cmath>
+
+namespace bidex::rl {
+
+namespace {
+
+// A parameter (or gradient) found on other storage must still fit its place in the flat buffer.
+void check_fits(const torch::Tensor& now, const torch::Tensor& place, size_t k, const char* what) {
+  TORCH_CHECK(now.sizes() == place.sizes() && now.dtype() == place.dtype() &&
+                  now.device() == place.device(),
+              "FlatAdam: the ", what, " of parameter ", k, " is now ", now.sizes(), " ",
+              now.dtype(), " on ", now.device(), ", the optimiser holds ", place.sizes(), " ",
+              place.dtype(), " on ", place.device());
+}
+
+}  // namespace
+
+FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, double beta2,
+                   double eps)
+    : params_(std::move(params)), beta1_(beta1), beta2_(beta2), eps_(eps) {
+  TORCH_CHECK(!params_.empty(), "FlatAdam: no parameters to optimise");
+  const auto& first = params_[0];
+  int64_t total = 0;
+  for (size_t k = 0; k < params_.size(); ++k) {
+    const auto& p = params_[k];
+    TORCH_CHECK(p.dtype() == first.dtype() && p.device() == first.device(), "FlatAdam: parameter ",
+                k, " is ", p.dtype(), " on ", p.device(), ", parameter 0 ", first.dtype(), " on ",
+                first.device(), " (one flat buffer holds them all)");
+    // a second binding of the same tensor would pull it away from the first place every call
+    for (size_t j = 0; j < k; ++j)
+      TORCH_CHECK(!p.is_same(params_[j]), "FlatAdam: parameter ", k, " is parameter ", j,
+                  " again");
+    total += p.numel();
+  }
+  const auto opts = torch::TensorOptions().dtype(first.dtype()).device(first.device());
+  values_ = torch::empty({total}, opts);
+  grads_ = torch::zeros({total}, opts);
+  exp_avg_ = torch::zeros({total}, opts);
+  exp_avg_sq_ = torch::zeros({total}, opts);
+  lr_ = torch::scalar_tensor(lr, opts.dtype(torch::kFloat64));
+  int64_t at = 0;
+  for (const auto& p : params_) {
+    value_views_.push_back(values_.narrow(0, at, p.numel()).view(p.sizes()));
+    grad_views_.push_back(grads_.narrow(0, at, p.numel()).view(p.sizes()));
+    at += p.numel();
+  }
+  // nothing points into the new buffers yet: this moves every value and gradient in
+  rebind();
+}
+
+void FlatAdam::rebind() {
+  torch::NoGradGuard ng;
+  for (size_t k = 0; k < params_.size(); ++k) {
+    auto& p = params_[k];
+    const auto& values = value_views_[k];
+    if (p.data_ptr() != values.data_ptr()) {
+      check_fits(p, values, k, "values");
+      values.copy_(p.detach());
+      p.set_data(values);
+    }
+    // autograd accumulates into a defined gradient in place, so a bound one stays bound
+    auto& g = p.mutable_grad();
+    const auto& grad = grad_views_[k];
+    if (!g.defined()) {
+      grad.zero_();
+      g = grad;
+    } else if (g.data_ptr() != grad.data_ptr()) {
+      check_fits(g, grad, k, "gradient");
+      grad.copy_(g);
+      g = grad;
+    }
+  }
+}
+
+void FlatAdam::zero_grad() {
+  rebind();
+  grads_.zero_();
+}
+
+torch::Tensor FlatAdam::clip_grad_norm(double max_norm) {
+  rebind();
+  torch::NoGradGuard ng;
+  auto norm = grads_.norm();
+  grads_.mul_(torch::clamp_max(max_norm / (norm + 1e-6), 1.0));
+  return norm;
+}
+
+void FlatAdam::step() {
+  rebind();
+  torch::NoGradGuard ng;
+  ++step_;
+  const double bias_correction1 = 1 - std::pow(beta1_, double(step_));
+  const double bias_correction2 = 1 - std::pow(beta2_, double(step_));
+  exp_avg_.mul_(beta1_).add_(grads_, 1 - beta1_);
+  exp_avg_sq_.mul_(beta2_).addcmul_(grads_, grads_, 1 - beta2_);
+  const auto denom = (exp_avg_sq_.sqrt() / std::sqrt(bias_correction2)).add_(eps_);
+  // addcdiv_ takes its factor from the host only: divide, scale by the device's rate, subtract
+  values_.sub_((exp_avg_ / denom).mul_(lr_ / bias_correction1));
+}
+
+double FlatAdam::lr() const { return lr_.item<double>(); }
+
+void FlatAdam::set_lr(double lr) { lr_.fill_(lr); }
+
+void FlatAdam::save(torch::serialize::OutputArchive& archive) const {
+  archive.write("exp_avg", exp_avg_);
+  archive.write("exp_avg_sq", exp_avg_sq_);
+  archive.write("step", torch::scalar_tensor(step_, torch::kLong));
+  archive.write("lr", lr_);
+}
+
+void FlatAdam::load(torch::serialize::InputArchive& archive) {
+  torch::Tensor exp_avg, exp_avg_sq, step, lr;
+  archive.read("exp_avg", exp_avg);
+  archive.read("exp_avg_sq", exp_avg_sq);
+  archive.read("step", step);
+  archive.read("lr", lr);
+  TORCH_CHECK(exp_avg.sizes() == exp_avg_.sizes() && exp_avg_sq.sizes() == exp_avg_.sizes(),
+              "FlatAdam: the saved moments have shapes ", exp_avg.sizes(), " and ",
+              exp_avg_sq.sizes(), ", these parameters ", exp_avg_.sizes());
+  TORCH_CHECK(step.numel() == 1 && lr.numel() == 1, "FlatAdam: the saved step and rate have ",
+              step.numel(), " and ", lr.numel(), " values, expected 1 each");
+  torch::NoGradGuard ng;
+  exp_avg_.copy_(exp_avg);
+  exp_avg_sq_.copy_(exp_avg_sq);
+  lr_.fill_(lr.item<double>());
+  step_ = step.item<int64_t>();
+}
+
+}  // namespace bidex::rl

@@ -1,0 +1,77 @@
+// Adam over one flat buffer: every parameter's values are a view of one contiguous tensor, every
+// gradient a view of another, and the moments are two more, so that a step, a gradient clip or
+// a zero_grad is a handful of element-wise kernels whatever the number of parameter tensors
+// (LibTorch's torch::optim::Adam launches its kernels once per tensor, and its clip_grad_norm_
+// reads the norm back to the host). The learning rate lives on the device, so that a rule can
+// change it there without a host synchronisation (PPO's KL-adaptive rate, rl/ppo.h).
+//
+// The math is LibTorch's Adam without weight decay or amsgrad, and LibTorch's
+// clip_grad_norm_ (2-norm):
+//   m = b1 m + (1 - b1) g,  v = b2 v + (1 - b2) g^2,
+//   p -= (lr / (1 - b1^t)) m / (sqrt(v) / sqrt(1 - b2^t) + eps)
+// with one difference: a parameter whose gradient is undefined at a step counts as having a zero
+// gradient (LibTorch's Adam skips it); zero_grad() never undefines a gradient.
+//
+// Parameters must stay the tensors the optimiser was given. Something may still replace their
+// storage behind its back: Module::load (InputArchive::read) calls tensor.set_(...), and a
+// LibTorch 2 Module::zero_grad() undefines the gradients, so that autograd then allocates fresh
+// ones. zero_grad(), clip_grad_norm() and step() therefore first compare, on the host, each
+// parameter's and gradient's data pointer with its place in the flat buffers (cheap: no device
+// work) and, where one has moved, copy its current values into the flat buffer and bind it
+// again, so that the optimiser never updates a buffer the model no longer reads. A parameter
+// whose shape, dtype or device changed is an error (build the optimiser after moving a model).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <torch/torch.h>
+
+namespace bidex::rl {
+
+class FlatAdam {
+ public:
+  // `params`: distinct tensors of one dtype on one device (their values and gradients move
+  // into the flat buffers here).
+  FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1 = 0.9,
+           double beta2 = 0.999, double eps = 1e-8);
+  // a copy would share the buffers and step the parameters twice
+  FlatAdam(const FlatAdam&) = delete;
+  FlatAdam& operator=(const FlatAdam&) = delete;
+
+  // Zeroes the flat gradient (one kernel).
+  void zero_grad();
+  // Scales the gradients as torch::nn::utils::clip_grad_norm_ (2-norm) does: by
+  // min(1, max_norm / (norm + 1e-6)), applied on the device. Returns the norm before clipping, a
+  // 0-dim tensor on the device (nothing is read back).
+  torch::Tensor clip_grad_norm(double max_norm);
+  // One Adam step of every parameter.
+  void step();
+
+  // The learning rate: a 0-dim float64 tensor on the parameters' device, which step() reads;
+  // write it in place to change the rate without a synchronisation.
+  const torch::Tensor& lr_tensor() const { return lr_; }
+  // Reads the rate back (a synchronisation: for statistics and checkpoints).
+  double lr() const;
+  void set_lr(double lr);
+  int64_t steps() const { return step_; }
+
+  // The moments, the step count and the learning rate. load() checks that the moments fit
+  // these parameters (a c10::Error naming both sizes).
+  void save(torch::serialize::OutputArchive& archive) const;
+  void load(torch::serialize::InputArchive& archive);
+
+ private:
+  // Binds every parameter and gradient that no longer points into the flat buffers back to
+  // them, keeping its current values.
+  void rebind();
+
+  std::vector<torch::Tensor> params_;
+  // each parameter's place in the flat buffers, shaped as the parameter
+  std::vector<torch::Tensor> value_views_, grad_views_;
+  torch::Tensor values_, grads_, exp_avg_, exp_avg_sq_, lr_;
+  double beta1_, beta2_, eps_;
+  int64_t step_ = 0;
+};
+
+}  // namespace bidex::rl

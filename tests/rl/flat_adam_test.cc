@@ -1,0 +1,231 @@
+// FlatAdam against LibTorch's Adam and clip_grad_norm_ on two copies of one actor-critic (13
+// parameter tensors of several shapes): the same parameters and norms step after step, with the
+// learning rate changing and the clip on and off; gradients accumulated in place in the flat
+// buffer; parameters and gradients whose storage a module load, set_ or a set-to-none
+// zero_grad replaced still optimised; and the optimiser's state saved and loaded.
+#include "tests/rl/rl_fixture.h"
+
+#include <sstream>
+
+#include "rl/flat_adam.h"
+#include "rl/policy.h"
+
+using namespace bidex;
+
+namespace {
+
+rl::ActorCritic make_net(uint64_t seed) {
+  rl::PpoConfig c;
+  c.hidden = {16, 8};
+  c.obs_norm = false;
+  torch::manual_seed(seed);
+  return rl::ActorCritic(5, 3, c);
+}
+
+// One batch and a loss that reaches every parameter; `scale` sets the gradient's norm.
+struct Batch {
+  torch::Tensor x, y;
+  double scale;
+};
+
+Batch batch(int k, double scale) {
+  torch::manual_seed(100 + k);
+  return {torch::randn({32, 5}), torch::randn({32, 3}), scale};
+}
+
+torch::Tensor loss_of(rl::ActorCritic& m, const Batch& b) {
+  return b.scale * ((m->mean(b.x) - b.y).pow(2).mean() + (m->value(b.x) - 1.0).pow(2).mean() +
+                    m->log_std().pow(2).sum());
+}
+
+// The reference: LibTorch's Adam at learning rate `lr` after clip_grad_norm_; returns the norm.
+double reference_step(rl::ActorCritic& m, torch::optim::Adam& opt, const Batch& b, double lr,
+                      double max_norm) {
+  for (auto& g : opt.param_groups()) static_cast<torch::optim::AdamOptions&>(g.options()).lr(lr);
+  opt.zero_grad();
+  loss_of(m, b).backward();
+  const double norm = torch::nn::utils::clip_grad_norm_(m->parameters(), max_norm);
+  opt.step();
+  return norm;
+}
+
+double flat_step(rl::ActorCritic& m, rl::FlatAdam& opt, const Batch& b, double lr,
+                 double max_norm) {
+  opt.set_lr(lr);
+  opt.zero_grad();
+  loss_of(m, b).backward();
+  const auto norm = opt.clip_grad_norm(max_norm);
+  opt.step();
+  return norm.item<double>();
+}
+
+// Largest |a - b| over all parameters. The two optimisers round differently (one norm of the
+// flat gradient against a norm of norms; a division and a product against addcdiv_), by a few
+// float ulps of the O(1) weights, while a step moves them by about lr (1e-3 to 1e-2): a bound of
+// 1e-6 tells the two apart from any error of the update.
+double max_diff(rl::ActorCritic& a, rl::ActorCritic& b) {
+  double worst = 0;
+  auto pa = a->parameters(), pb = b->parameters();
+  for (size_t k = 0; k < pa.size(); ++k)
+    worst = std::max(worst, (pa[k] - pb[k]).abs().max().item<double>());
+  return worst;
+}
+
+// The step's learning rate and clip: the clip binds on even steps (large loss, max_norm 0.5),
+// never on odd ones (tiny loss, max_norm 1e3).
+double lr_at(int k) { return 1e-2 * (1 + k % 3) / 2; }
+double max_norm_at(int k) { return k % 2 == 0 ? 0.5 : 1e3; }
+Batch batch_at(int k) { return batch(k, k % 2 == 0 ? 10.0 : 1e-3); }
+
+}  // namespace
+
+TEST_CASE("FlatAdam steps as LibTorch's Adam after clip_grad_norm_", "[rl][ppo][flat_adam]") {
+  auto ref = make_net(1), flat = make_net(1);
+  torch::optim::Adam ref_opt(ref->parameters(), torch::optim::AdamOptions(1e-3));
+  rl::FlatAdam opt(flat->parameters(), 1e-3);
+  REQUIRE(flat->parameters().size() == 13);
+  CHECK(max_diff(flat, ref) == 0);  // moving into the flat buffer keeps the values
+  for (int k = 0; k < 12; ++k) {
+    const auto b = batch_at(k);
+    const double want = reference_step(ref, ref_opt, b, lr_at(k), max_norm_at(k));
+    // both regimes of the clip happen
+    if (k % 2 == 0) REQUIRE(want > max_norm_at(k));
+    else REQUIRE(want < max_norm_at(k));
+    // autograd accumulates into the gradients bound after zero_grad(), one after another
+    opt.set_lr(lr_at(k));
+    opt.zero_grad();
+    auto params = flat->parameters();
+    std::vector<void*> bound;
+    for (auto& p : params) bound.push_back(p.grad().data_ptr());
+    for (size_t j = 1; j < params.size(); ++j)
+      REQUIRE(static_cast<char*>(bound[j]) ==
+              static_cast<char*>(bound[j - 1]) + params[j - 1].numel() * sizeof(float));
+    loss_of(flat, b).backward();
+    for (size_t j = 0; j < params.size(); ++j) REQUIRE(params[j].grad().data_ptr() == bound[j]);
+    const double got = opt.clip_grad_norm(max_norm_at(k)).item<double>();
+    opt.step();
+    CHECK(got == Approx(want).epsilon(1e-6));
+    INFO("step " << k);
+    CHECK(max_diff(flat, ref) < 1e-6);
+  }
+  CHECK(opt.steps() == 12);
+  CHECK(opt.lr() == lr_at(11));
+}
+
+TEST_CASE("FlatAdam follows parameters and gradients whose storage was replaced",
+          "[rl][ppo][flat_adam]") {
+  auto ref = make_net(1), flat = make_net(1);
+  torch::optim::Adam ref_opt(ref->parameters(), torch::optim::AdamOptions(1e-3));
+  rl::FlatAdam opt(flat->parameters(), 1e-3);
+  int k = 0;
+  auto both = [&](int steps) {
+    for (int end = k + steps; k < end; ++k) {
+      const auto b = batch_at(k);
+      const double want = reference_step(ref, ref_opt, b, lr_at(k), max_norm_at(k));
+      CHECK(flat_step(flat, opt, b, lr_at(k), max_norm_at(k)) == Approx(want).epsilon(1e-6));
+      INFO("step " << k);
+      CHECK(max_diff(flat, ref) < 1e-6);
+    }
+  };
+  both(3);
+  // Module::load gives every parameter the archive's storage (tensor.set_): another network's
+  // values, loaded into both; LibTorch's Adam keeps its moments across it, as FlatAdam must
+  {
+    auto other = make_net(7);
+    torch::serialize::OutputArchive out;
+    other->save(out);
+    std::ostringstream bytes;
+    out.save_to(bytes);
+    const void* before = flat->parameters()[0].data_ptr();
+    for (auto* net : {&ref, &flat}) {
+      torch::serialize::InputArchive in;
+      std::istringstream is(bytes.str());
+      in.load_from(is);
+      (*net)->load(in);
+    }
+    REQUIRE(flat->parameters()[0].data_ptr() != before);
+    REQUIRE(max_diff(flat, other) == 0);
+  }
+  both(3);
+  // set_ on one parameter, and gradients undefined after zero_grad() (LibTorch 2's
+  // Module::zero_grad), so that backward allocates fresh ones
+  {
+    torch::NoGradGuard ng;
+    const auto values = torch::randn({3});
+    ref->log_std().set_(values.clone());
+    flat->log_std().set_(values.clone());
+  }
+  const auto b = batch_at(k);
+  const double want = reference_step(ref, ref_opt, b, lr_at(k), max_norm_at(k));
+  opt.set_lr(lr_at(k));
+  opt.zero_grad();
+  flat->zero_grad(/*set_to_none=*/true);
+  loss_of(flat, b).backward();
+  CHECK(opt.clip_grad_norm(max_norm_at(k)).item<double>() == Approx(want).epsilon(1e-6));
+  opt.step();
+  CHECK(max_diff(flat, ref) < 1e-6);
+  ++k;
+  both(3);
+}
+
+TEST_CASE("FlatAdam's saved state continues the run; a state of other sizes is refused",
+          "[rl][ppo][flat_adam]") {
+  auto a = make_net(1);
+  rl::FlatAdam opt_a(a->parameters(), 1e-3);
+  for (int k = 0; k < 4; ++k) flat_step(a, opt_a, batch_at(k), lr_at(k), max_norm_at(k));
+  torch::serialize::OutputArchive out;
+  a->save(out);
+  opt_a.save(out);
+  std::ostringstream bytes;
+  out.save_to(bytes);
+  auto archive = [&] {
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    return in;
+  };
+  // b loads the network and the optimiser; `fresh` the network only (Adam's state anew)
+  auto b = make_net(2), fresh = make_net(3);
+  rl::FlatAdam opt_b(b->parameters(), 1.0), opt_fresh(fresh->parameters(), lr_at(3));
+  {
+    auto in = archive();
+    b->load(in);
+    opt_b.load(in);
+    auto in_fresh = archive();
+    fresh->load(in_fresh);
+  }
+  CHECK(opt_b.steps() == 4);
+  CHECK(opt_b.lr() == lr_at(3));
+  for (int k = 4; k < 8; ++k) {
+    // each keeps the learning rate it has: b the one it loaded
+    auto step = [&](rl::ActorCritic& net, rl::FlatAdam& opt) {
+      opt.zero_grad();
+      loss_of(net, batch_at(k)).backward();
+      opt.clip_grad_norm(max_norm_at(k));
+      opt.step();
+    };
+    step(a, opt_a);
+    step(b, opt_b);
+    step(fresh, opt_fresh);
+  }
+  CHECK(max_diff(b, a) == 0);
+  CHECK(max_diff(fresh, a) > 1e-3);  // the moments and the step count matter
+  // the state of a network of other widths: an error naming both sizes
+  rl::PpoConfig c;
+  c.hidden = {16, 9};
+  rl::ActorCritic wide(5, 3, c);
+  rl::FlatAdam opt_wide(wide->parameters(), 1e-3);
+  int64_t saved = 0, here = 0;
+  for (auto& p : a->parameters()) saved += p.numel();
+  for (auto& p : wide->parameters()) here += p.numel();
+  auto in = archive();
+  try {
+    opt_wide.load(in);
+    FAIL("no error");
+  } catch (const c10::Error& e) {
+    const std::string msg = e.what();
+    INFO(msg);
+    CHECK(msg.find("[" + std::to_string(saved) + "]") != std::string::npos);
+    CHECK(msg.find("[" + std::to_string(here) + "]") != std::string::npos);
+  }
+}
