@@ -9,7 +9,7 @@
 #       2. solo: catch_abreast, seed 0, to 25M slot-steps with each build, one at a time (the
 #          training rate over a whole run, and the slot-steps at which it reached 43.4):
 #          OUTDIR/solo-{old,new}-s0/catch_abreast-ppo/
-#       3. together: NEW's catch_abreast seed 1 and hand_over seeds 0 and 1, to 25M slot-steps,
+#       3. together: NEW's catch_abreast seed 1 and hand_over seeds 0 and 1, to 20M slot-steps,
 #          three trainings sharing the GPU (curves only): OUTDIR/new-sS/TASK-ppo/
 #       Every run: 16,384 slots, 16 minibatches of 8,192 (the settings that reach the
 #       original's returns). OUTDIR/done when all ended; OUTDIR/compare.log tells the stages.
@@ -47,20 +47,20 @@ run)  # the sequence itself (start runs it in the background)
       echo "commit $(commit_of $b): bidex ${cmd[*]}" >"$d/command.txt"
     done
   done
-  train() {  # BUILD_NAME OUT_SUBDIR TASK SEED
+  train() {  # BUILD_NAME OUT_SUBDIR TASK SEED SLOT_STEPS
     BIDEX_GPU_BUILD=$(build_of "$1") BIDEX_COMMIT=$(commit_of "$1") \
       BIDEX_GPU_RUNS=/tmp/compare-runs-$2 \
       bench/gpu_learn_run.sh train "$out/$2" "$3" 16384 3000 43.4 "${common[@]:2}" \
-      -o seed="$4" -o train.steps=25e6 >"$out/$2-$3.log" 2>&1
+      -o seed="$4" -o train.steps="$5" >"$out/$2-$3.log" 2>&1
   }
   for b in old new; do
     echo "$(date -u +%T) solo catch_abreast $b"
-    train "$b" "solo-$b-s0" catch_abreast 0
+    train "$b" "solo-$b-s0" catch_abreast 0 25e6
   done
   echo "$(date -u +%T) together: new catch_abreast s1, hand_over s0 and s1"
-  train new new-s1 catch_abreast 1 &
-  train new new-s0 hand_over 0 &
-  train new new-s1 hand_over 1 &
+  train new new-s1 catch_abreast 1 20e6 &
+  train new new-s0 hand_over 0 20e6 &
+  train new new-s1 hand_over 1 20e6 &
   wait
   echo "$(date -u +%T) done"
   touch "$out/done"
