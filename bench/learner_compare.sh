@@ -15,7 +15,10 @@
 #       original's returns). OUTDIR/done when all ended; OUTDIR/compare.log tells the stages.
 #   bench/learner_compare.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for OUTDIR/done, printing the newest progress line
-# BIDEX_COMMIT_OLD and BIDEX_COMMIT_NEW name the builds' commits in the results.
+# BIDEX_COMMIT_OLD and BIDEX_COMMIT_NEW name the builds' commits in the results. OLD and NEW may
+# be one build: BIDEX_OLD_ARGS and BIDEX_NEW_ARGS add settings to each side's commands (e.g.
+# "-o ppo.cuda_graph=true"). BIDEX_COMPARE_STAGES (default "profile solo together") picks stages,
+# BIDEX_COMPARE_TASKS (default "catch_abreast hand_over") the profiles' tasks.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:-}
@@ -34,34 +37,43 @@ run)  # the sequence itself (start runs it in the background)
   out=$2; old=$3; new=$4
   common=(-o env.slots=16384 -o ppo.minibatches=16)
   build_of() { [[ $1 == old ]] && echo "$old" || echo "$new"; }
+  # shellcheck disable=SC2206
+  extra_of() { [[ $1 == old ]] && extra=(${BIDEX_OLD_ARGS:-}) || extra=(${BIDEX_NEW_ARGS:-}); }
+  stages=" ${BIDEX_COMPARE_STAGES:-profile solo together} "
   commit_of() { [[ $1 == old ]] && echo "${BIDEX_COMMIT_OLD:-unknown}" || echo "${BIDEX_COMMIT_NEW:-unknown}"; }
-  for task in catch_abreast hand_over; do
+  for task in ${BIDEX_COMPARE_TASKS:-catch_abreast hand_over}; do
+    [[ $stages == *" profile "* ]] || break
     for b in old new; do
+      extra_of "$b"
       echo "$(date -u +%T) profile $task $b"
       d=$out/profile-$task-$b
       mkdir -p "$d"
       cmd=(train --task "$task" --device cuda --profile --run "/tmp/compare-profile-$task-$b"
-           --no-registry "${common[@]}" -o train.steps=3145728)
+           --no-registry "${common[@]}" -o train.steps=3145728 "${extra[@]}")
       "$(build_of $b)/apps/bidex" "${cmd[@]}" >"$d/profile.log" 2>&1
       cp "/tmp/compare-profile-$task-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
       echo "commit $(commit_of $b): bidex ${cmd[*]}" >"$d/command.txt"
     done
   done
   train() {  # BUILD_NAME OUT_SUBDIR TASK SEED SLOT_STEPS
+    extra_of "$1"
     BIDEX_GPU_BUILD=$(build_of "$1") BIDEX_COMMIT=$(commit_of "$1") \
       BIDEX_GPU_RUNS=/tmp/compare-runs-$2 \
       bench/gpu_learn_run.sh train "$out/$2" "$3" 16384 3000 43.4 "${common[@]:2}" \
-      -o seed="$4" -o train.steps="$5" >"$out/$2-$3.log" 2>&1
+      -o seed="$4" -o train.steps="$5" "${extra[@]}" >"$out/$2-$3.log" 2>&1
   }
   for b in old new; do
+    [[ $stages == *" solo "* ]] || break
     echo "$(date -u +%T) solo catch_abreast $b"
     train "$b" "solo-$b-s0" catch_abreast 0 25e6
   done
-  echo "$(date -u +%T) together: new catch_abreast s1, hand_over s0 and s1"
-  train new new-s1 catch_abreast 1 20e6 &
-  train new new-s0 hand_over 0 20e6 &
-  train new new-s1 hand_over 1 20e6 &
-  wait
+  if [[ $stages == *" together "* ]]; then
+    echo "$(date -u +%T) together: new catch_abreast s1, hand_over s0 and s1"
+    train new new-s1 catch_abreast 1 20e6 &
+    train new new-s0 hand_over 0 20e6 &
+    train new new-s1 hand_over 1 20e6 &
+    wait
+  fi
   echo "$(date -u +%T) done"
   touch "$out/done"
   ;;

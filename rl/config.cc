@@ -278,7 +278,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
         trpo ? std::vector<std::string>{"max_kl", "damping", "cg_iters", "backtracks",
                                         "accept_ratio", "step_fraction"}
              : std::vector<std::string>{"clip", "schedule", "desired_kl", "entropy_coef",
-                                        "clip_value_loss", "value_clip"};
+                                        "clip_value_loss", "value_clip", "cuda_graph"};
     keys.insert(keys.end(), own.begin(), own.end());
     p.allow_keys(keys);
     auto& o = c.ppo;
@@ -311,6 +311,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       o.entropy_coef = read_real(p, "entropy_coef", 0, 1e3, false);
       o.clip_value_loss = p.req<bool>("clip_value_loss");
       o.value_clip = read_real(p, "value_clip", 0, 1e3, true);
+      if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();
     }
   }
   if (c.batch() < c.ppo.minibatches) {

@@ -33,6 +33,8 @@ struct PpoConfig {
   double value_clip = 0.2;
   bool obs_norm = true;
   bool value_norm = false;
+  // PPO and MTPPO on a CUDA device: replay the minibatch step as a CUDA graph (rl/ppo.h)
+  bool cuda_graph = false;
 };
 
 // TRPO's natural-gradient step (the `trpo:` section, with the fields of PpoConfig it shares).

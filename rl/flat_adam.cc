@@ -40,6 +40,7 @@ FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, d
   exp_avg_ = torch::zeros({total}, opts);
   exp_avg_sq_ = torch::zeros({total}, opts);
   lr_ = torch::scalar_tensor(lr, opts.dtype(torch::kFloat64));
+  step_ = torch::zeros({}, opts.dtype(torch::kFloat64));
   int64_t at = 0;
   for (const auto& p : params_) {
     value_views_.push_back(values_.narrow(0, at, p.numel()).view(p.sizes()));
@@ -90,24 +91,28 @@ torch::Tensor FlatAdam::clip_grad_norm(double max_norm) {
 void FlatAdam::step() {
   rebind();
   torch::NoGradGuard ng;
-  ++step_;
-  const double bias_correction1 = 1 - std::pow(beta1_, double(step_));
-  const double bias_correction2 = 1 - std::pow(beta2_, double(step_));
+  // the step count and the bias corrections on the device (float64, as LibTorch's Adam computes
+  // them on the host), so that a CUDA graph replaying this step counts on
+  step_.add_(1);
+  const auto bias_correction1 = 1 - torch::pow(beta1_, step_);
+  const auto bias_correction2 = 1 - torch::pow(beta2_, step_);
   exp_avg_.mul_(beta1_).add_(grads_, 1 - beta1_);
   exp_avg_sq_.mul_(beta2_).addcmul_(grads_, grads_, 1 - beta2_);
-  const auto denom = (exp_avg_sq_.sqrt() / std::sqrt(bias_correction2)).add_(eps_);
+  const auto denom = (exp_avg_sq_.sqrt() / bias_correction2.sqrt()).add_(eps_);
   // addcdiv_ takes its factor from the host only: divide, scale by the device's rate, subtract
   values_.sub_((exp_avg_ / denom).mul_(lr_ / bias_correction1));
 }
 
 double FlatAdam::lr() const { return lr_.item<double>(); }
 
+int64_t FlatAdam::steps() const { return static_cast<int64_t>(step_.item<double>()); }
+
 void FlatAdam::set_lr(double lr) { lr_.fill_(lr); }
 
 void FlatAdam::save(torch::serialize::OutputArchive& archive) const {
   archive.write("exp_avg", exp_avg_);
   archive.write("exp_avg_sq", exp_avg_sq_);
-  archive.write("step", torch::scalar_tensor(step_, torch::kLong));
+  archive.write("step", step_);
   archive.write("lr", lr_);
 }
 
@@ -126,7 +131,7 @@ void FlatAdam::load(torch::serialize::InputArchive& archive) {
   exp_avg_.copy_(exp_avg);
   exp_avg_sq_.copy_(exp_avg_sq);
   lr_.fill_(lr.item<double>());
-  step_ = step.item<int64_t>();
+  step_.fill_(step.item<double>());
 }
 
 }  // namespace bidex::rl

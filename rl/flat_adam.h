@@ -5,6 +5,9 @@
 // reads the norm back to the host). The learning rate lives on the device, so that a rule can
 // change it there without a host synchronisation (PPO's KL-adaptive rate, rl/ppo.h).
 //
+// step() reads nothing from the host that changes between steps (the step count is a device
+// tensor too), so a CUDA graph can capture it once and replay it (rl/ppo.h).
+//
 // The math is LibTorch's Adam without weight decay or amsgrad, and LibTorch's
 // clip_grad_norm_ (2-norm):
 //   m = b1 m + (1 - b1) g,  v = b2 v + (1 - b2) g^2,
@@ -54,24 +57,26 @@ class FlatAdam {
   // Reads the rate back (a synchronisation: for statistics and checkpoints).
   double lr() const;
   void set_lr(double lr);
-  int64_t steps() const { return step_; }
+  // The steps taken (read from the device: a synchronisation).
+  int64_t steps() const;
 
   // The moments, the step count and the learning rate. load() checks that the moments fit
   // these parameters (a c10::Error naming both sizes).
   void save(torch::serialize::OutputArchive& archive) const;
   void load(torch::serialize::InputArchive& archive);
 
- private:
   // Binds every parameter and gradient that no longer points into the flat buffers back to
-  // them, keeping its current values.
+  // them, keeping its current values. zero_grad(), clip_grad_norm() and step() call it; a CUDA
+  // graph's replay of them runs no host code, so call it before replaying.
   void rebind();
 
+ private:
   std::vector<torch::Tensor> params_;
   // each parameter's place in the flat buffers, shaped as the parameter
   std::vector<torch::Tensor> value_views_, grad_views_;
   torch::Tensor values_, grads_, exp_avg_, exp_avg_sq_, lr_;
+  torch::Tensor step_;  // 0-dim float64 on the device: nothing in step() is a host value
   double beta1_, beta2_, eps_;
-  int64_t step_ = 0;
 };
 
 }  // namespace bidex::rl

@@ -1,9 +1,18 @@
 #include "rl/ppo.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <string>
 
 #include "rl/checkpoint.h"
 #include "rl/onpolicy.h"
+
+#ifdef BIDEX_TORCH_CUDA
+#include <ATen/cuda/CUDAEvent.h>
+#include <ATen/cuda/CUDAGraph.h>
+#include <c10/cuda/CUDAGuard.h>
+#include <c10/cuda/CUDAStream.h>
+#endif
 
 namespace bidex::rl {
 
@@ -54,87 +63,153 @@ void adapt_lr(const torch::Tensor& lr, const torch::Tensor& kl, double desired_k
   lr.copy_(torch::where(k > 2.0 * desired_kl, lower, torch::where(small, higher, lr)));
 }
 
+#ifdef BIDEX_TORCH_CUDA
+// The minibatch step as a CUDA graph: captured once from the second update on (the first runs
+// eagerly on the same side stream: cuBLAS's workspace for that stream and the autograd engine's
+// threads exist before the capture, as CUDA graphs need), then replayed for every minibatch.
+// The graph reads the update's rows from buffers that keep their addresses (`rows`: the
+// rollout's own tensors, and copies of the advantages, targets and old values) and the
+// minibatch's row numbers from `idx`.
+struct Ppo::Graph {
+  c10::cuda::CUDAStream stream = c10::cuda::getStreamFromPool();
+  std::unique_ptr<at::cuda::CUDAGraph> graph;
+  Rows rows;
+  torch::Tensor idx;
+  bool warm = false;
+
+  // the rollout's tensors moved or changed size: capture again
+  bool fits(const Rows& r) const {
+    auto same = [](const torch::Tensor& a, const torch::Tensor& b) {
+      return a.defined() && a.data_ptr() == b.data_ptr() && a.sizes() == b.sizes();
+    };
+    return same(rows.nobs, r.nobs) && same(rows.actions, r.actions) &&
+           same(rows.logp_old, r.logp_old) && same(rows.mu_old, r.mu_old) &&
+           same(rows.log_std_old, r.log_std_old) && rows.advantages.sizes() == r.advantages.sizes();
+  }
+};
+#else
+struct Ppo::Graph {};
+#endif
+
 Ppo::Ppo(ActorCritic model, const PpoConfig& config)
     : model_(std::move(model)), c_(config), opt_(model_->parameters(), c_.lr) {}
+
+Ppo::~Ppo() = default;
+
+bool Ppo::graphed() const {
+#ifdef BIDEX_TORCH_CUDA
+  return graph_ && graph_->graph;
+#else
+  return false;
+#endif
+}
+
+void Ppo::minibatch(const Rows& r, const torch::Tensor& idx, bool timed) {
+  auto mark = [&](const char* stage) {
+    if (timed) timer_.mark(stage);
+  };
+  auto o = r.nobs.index_select(0, idx);
+  auto a = r.actions.index_select(0, idx);
+  auto mu = model_->mean(o);
+  auto log_std = model_->log_std();
+  auto logp = gaussian_log_prob(a, mu, log_std);
+  mark("forward");
+  torch::Tensor kl;
+  {
+    torch::NoGradGuard ng;
+    kl = gaussian_kl(r.mu_old.index_select(0, idx), r.log_std_old, mu, log_std).mean();
+  }
+  if (c_.schedule == "adaptive") adapt_lr(opt_.lr_tensor(), kl, c_.desired_kl);
+  mark("kl_check");
+  auto adv_mb = r.advantages.index_select(0, idx);
+  auto ratio = torch::exp(logp - r.logp_old.index_select(0, idx));
+  auto policy_loss = clipped_surrogate(ratio, adv_mb, c_.clip);
+  auto v = model_->raw_value(o);
+  auto tgt = r.targets.index_select(0, idx);
+  torch::Tensor value_loss;
+  if (c_.clip_value_loss) {
+    auto v_old = r.values_old.index_select(0, idx);
+    auto v_clipped = v_old + torch::clamp(v - v_old, -c_.value_clip, c_.value_clip);
+    value_loss = torch::max((v - tgt).pow(2), (v_clipped - tgt).pow(2)).mean();
+  } else {
+    value_loss = (v - tgt).pow(2).mean();
+  }
+  auto entropy = gaussian_entropy(log_std);
+  auto loss = policy_loss + c_.value_coef * value_loss - c_.entropy_coef * entropy;
+  mark("forward");
+  opt_.zero_grad();
+  loss.backward();
+  mark("backward");
+  opt_.clip_grad_norm(c_.max_grad_norm);
+  mark("clip_grad");
+  opt_.step();
+  mark("optimizer");
+  {
+    torch::NoGradGuard ng;
+    auto clipped = ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean();
+    sums_ += torch::stack({policy_loss, value_loss, entropy, clipped, kl}).to(torch::kFloat64);
+  }
+  mark("stats");
+}
+
+void Ppo::epochs(const Rows& rows, int64_t B, [[maybe_unused]] const torch::Tensor* idx_buffer) {
+  const int64_t mb = B / c_.minibatches;
+  const auto device = rows.nobs.device();
+  for (int epoch = 0; epoch < c_.epochs; ++epoch) {
+    auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(device));
+    for (int k = 0; k < c_.minibatches; ++k) {
+      auto idx = perm.narrow(0, k * mb, mb);
+#ifdef BIDEX_TORCH_CUDA
+      if (idx_buffer) {
+        idx_buffer->copy_(idx);
+        if (graph_->graph) {
+          graph_->graph->replay();
+          timer_.mark("graph_step");
+          continue;
+        }
+        idx = *idx_buffer;
+      }
+#endif
+      minibatch(rows, idx, true);
+    }
+  }
+}
 
 UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   timer_.start();
   auto [adv, ret] = gae(r.rewards, r.values, r.dones, last_value, c_.gamma, c_.lambda);
   timer_.mark("gae");
   const int64_t B = r.horizon * r.nslot;
-  auto nobs = r.nobs.reshape({B, -1});
-  auto actions = r.actions.reshape({B, -1});
-  auto logp_old = r.logp.reshape({B});
-  auto mu_old = r.mu.reshape({B, -1});
   auto values_old = r.values.reshape({B});
   auto returns = ret.reshape({B});
   auto advantages = adv.reshape({B});
-  advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
-  torch::Tensor targets = returns, values_old_raw = values_old;
+  Rows rows{r.nobs.reshape({B, -1}), r.actions.reshape({B, -1}), r.logp.reshape({B}),
+            r.mu.reshape({B, -1}),   r.log_std.detach(),           {}, returns, values_old};
+  rows.advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
   if (model_->uses_value_norm()) {
     model_->value_norm()->update(returns.unsqueeze(1));
     torch::NoGradGuard ng;
-    targets = model_->value_norm()->normalize(returns.unsqueeze(1)).squeeze(1);
-    values_old_raw = model_->value_norm()->normalize(values_old.unsqueeze(1)).squeeze(1);
+    rows.targets = model_->value_norm()->normalize(returns.unsqueeze(1)).squeeze(1);
+    rows.values_old = model_->value_norm()->normalize(values_old.unsqueeze(1)).squeeze(1);
   }
-  const auto log_std_old = r.log_std.detach();
   timer_.mark("prepare");
-  const int64_t mb = B / c_.minibatches;
-  int n = 0;
+  const auto device = rows.nobs.device();
   // policy loss, value loss, entropy, clip fraction, KL: summed on the device, read once at the
   // end with the learning rate
-  auto sums = torch::zeros({5}, torch::TensorOptions().dtype(torch::kFloat64).device(nobs.device()));
-  for (int epoch = 0; epoch < c_.epochs; ++epoch) {
-    auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong).device(nobs.device()));
-    for (int k = 0; k < c_.minibatches; ++k) {
-      auto idx = perm.narrow(0, k * mb, mb);
-      auto o = nobs.index_select(0, idx);
-      auto a = actions.index_select(0, idx);
-      auto mu = model_->mean(o);
-      auto log_std = model_->log_std();
-      auto logp = gaussian_log_prob(a, mu, log_std);
-      timer_.mark("forward");
-      torch::Tensor kl;
-      {
-        torch::NoGradGuard ng;
-        kl = gaussian_kl(mu_old.index_select(0, idx), log_std_old, mu, log_std).mean();
-      }
-      if (c_.schedule == "adaptive") adapt_lr(opt_.lr_tensor(), kl, c_.desired_kl);
-      timer_.mark("kl_check");
-      auto adv_mb = advantages.index_select(0, idx);
-      auto ratio = torch::exp(logp - logp_old.index_select(0, idx));
-      auto policy_loss = clipped_surrogate(ratio, adv_mb, c_.clip);
-      auto v = model_->raw_value(o);
-      auto tgt = targets.index_select(0, idx);
-      torch::Tensor value_loss;
-      if (c_.clip_value_loss) {
-        auto v_old = values_old_raw.index_select(0, idx);
-        auto v_clipped = v_old + torch::clamp(v - v_old, -c_.value_clip, c_.value_clip);
-        value_loss = torch::max((v - tgt).pow(2), (v_clipped - tgt).pow(2)).mean();
-      } else {
-        value_loss = (v - tgt).pow(2).mean();
-      }
-      auto entropy = gaussian_entropy(log_std);
-      auto loss = policy_loss + c_.value_coef * value_loss - c_.entropy_coef * entropy;
-      timer_.mark("forward");
-      opt_.zero_grad();
-      loss.backward();
-      timer_.mark("backward");
-      opt_.clip_grad_norm(c_.max_grad_norm);
-      timer_.mark("clip_grad");
-      opt_.step();
-      timer_.mark("optimizer");
-      {
-        torch::NoGradGuard ng;
-        auto clipped = ((ratio - 1.0).abs() > c_.clip).to(torch::kFloat32).mean();
-        sums += torch::stack({policy_loss, value_loss, entropy, clipped, kl}).to(torch::kFloat64);
-      }
-      timer_.mark("stats");
-      ++n;
-    }
+  if (!sums_.defined() || sums_.device() != device)
+    sums_ = torch::zeros({5}, torch::TensorOptions().dtype(torch::kFloat64).device(device));
+  sums_.zero_();
+  bool eager = true;
+#ifdef BIDEX_TORCH_CUDA
+  if (c_.cuda_graph && device.is_cuda()) {
+    eager = false;
+    graphed_epochs(rows, B);
   }
+#endif
+  if (eager) epochs(rows, B, nullptr);
+  const int n = c_.epochs * c_.minibatches;
   const auto read =
-      torch::cat({sums / std::max(n, 1), opt_.lr_tensor().reshape({1})}).to(torch::kCPU);
+      torch::cat({sums_ / std::max(n, 1), opt_.lr_tensor().reshape({1})}).to(torch::kCPU);
   timer_.count_syncs(1);  // the statistics and the learning rate, once
   const auto m = read.accessor<double, 1>();
   UpdateStats st;
@@ -147,6 +222,63 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   timer_.mark("read_stats");
   return st;
 }
+
+#ifdef BIDEX_TORCH_CUDA
+void Ppo::graphed_epochs(const Rows& rows, int64_t B) {
+  if (!graph_) graph_ = std::make_unique<Graph>();
+  Graph& g = *graph_;
+  if (!g.fits(rows)) {  // (re)bind the graph's inputs; capture after one more eager update
+    g.graph.reset();
+    g.warm = false;
+    g.rows = rows;
+    g.rows.advantages = torch::empty_like(rows.advantages);
+    g.rows.targets = torch::empty_like(rows.targets);
+    g.rows.values_old = torch::empty_like(rows.values_old);
+    g.idx = torch::empty({B / c_.minibatches}, rows.nobs.options().dtype(torch::kLong));
+  }
+  opt_.rebind();  // a replay runs no host code: the parameters must be the flat buffer's now
+  const auto main = c10::cuda::getCurrentCUDAStream();
+  at::cuda::CUDAEvent ready;
+  ready.record(main);
+  ready.block(g.stream);
+  {
+    c10::cuda::CUDAStreamGuard on_side(g.stream);
+    g.rows.advantages.copy_(rows.advantages);
+    g.rows.targets.copy_(rows.targets);
+    g.rows.values_old.copy_(rows.values_old);
+    if (g.warm && !g.graph) {
+      auto graph = std::make_unique<at::cuda::CUDAGraph>();
+      try {
+        graph->capture_begin();
+        minibatch(g.rows, g.idx, false);  // recorded, not run
+        graph->capture_end();
+        g.graph = std::move(graph);
+        std::fprintf(stderr, "bidex: PPO's minibatch step is replayed as a CUDA graph\n");
+      } catch (const std::exception& e) {
+        // end a capture the error left open, then go on without the graph
+        cudaStreamCaptureStatus status = cudaStreamCaptureStatusNone;
+        if (cudaStreamIsCapturing(g.stream.stream(), &status) == cudaSuccess &&
+            status != cudaStreamCaptureStatusNone) {
+          cudaGraph_t broken = nullptr;
+          cudaStreamEndCapture(g.stream.stream(), &broken);
+          if (broken) cudaGraphDestroy(broken);
+        }
+        (void)cudaGetLastError();
+        std::fprintf(stderr,
+                     "bidex: warning: PPO's minibatch step could not be captured as a CUDA graph; "
+                     "it runs without one (ppo.cuda_graph: false hides this): %s\n",
+                     std::string(e.what()).substr(0, 300).c_str());
+        c_.cuda_graph = false;
+      }
+    }
+    epochs(g.rows, B, c_.cuda_graph ? &g.idx : nullptr);
+    g.warm = true;
+  }
+  at::cuda::CUDAEvent done;
+  done.record(g.stream);
+  done.block(main);
+}
+#endif
 
 }  // namespace bidex::rl
 

@@ -57,6 +57,7 @@ struct UpdateStats {
 class Ppo {
  public:
   Ppo(ActorCritic model, const PpoConfig& config);
+  ~Ppo();
 
   // Runs the epochs and minibatches over `r`, `last_value` = V(obs after the rollout).
   UpdateStats update(const Rollout& r, const torch::Tensor& last_value);
@@ -64,14 +65,36 @@ class Ppo {
   // the optimiser, which holds the adaptive learning rate
   FlatAdam& optimizer() { return opt_; }
   // Times update()'s stages from now on (gae, prepare, forward, kl_check, backward, clip_grad,
-  // optimizer, stats, read_stats) and counts its host synchronisations (one: read_stats).
+  // optimizer, stats, read_stats; with a CUDA graph, graph_step in place of forward ... stats)
+  // and counts its host synchronisations (one: read_stats).
   StageTimer& timer() { return timer_; }
+  // Whether update() replays its minibatch step as a CUDA graph: `cuda_graph` on, the model on
+  // a CUDA device, LibTorch built with CUDA, and one update already run (it warms the graph's
+  // stream up).
+  bool graphed() const;
 
  private:
+  // The rows an update's minibatches draw from, [B, ...] on the device.
+  struct Rows {
+    torch::Tensor nobs, actions, logp_old, mu_old, log_std_old, advantages, targets, values_old;
+  };
+  struct Graph;
+  // One minibatch's gradient step on the rows `idx`: the KL-adaptive rate, the losses, backward,
+  // the clip, Adam, and the statistics added to sums_. It reads nothing back, so a CUDA graph
+  // can capture it. `timed`: mark the profile's stages (never while capturing).
+  void minibatch(const Rows& rows, const torch::Tensor& idx, bool timed);
+  // The epochs of shuffled minibatches; with `idx_buffer` (the graph's), each minibatch's rows
+  // are copied into it and the graph replays (or, before the capture, runs eagerly on it).
+  void epochs(const Rows& rows, int64_t B, const torch::Tensor* idx_buffer);
+  // The epochs on the graph's stream, capturing the step once the stream is warm.
+  void graphed_epochs(const Rows& rows, int64_t B);
+
   ActorCritic model_;
   PpoConfig c_;
   FlatAdam opt_;
   StageTimer timer_;
+  torch::Tensor sums_;  // policy loss, value loss, entropy, clip fraction, KL (float64)
+  std::unique_ptr<Graph> graph_;
 };
 
 // PPO behind the learning core's Algorithm interface (mtppo is the same on a suite's pack):
