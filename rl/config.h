@@ -34,7 +34,7 @@ struct PpoConfig {
   bool obs_norm = true;
   bool value_norm = false;
   // PPO and MTPPO on a CUDA device: replay the minibatch step as a CUDA graph (rl/ppo.h)
-  bool cuda_graph = false;
+  bool cuda_graph = true;
 };
 
 // TRPO's natural-gradient step (the `trpo:` section, with the fields of PpoConfig it shares).

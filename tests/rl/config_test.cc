@@ -50,6 +50,7 @@ TEST_CASE("PPO defaults are the paper's table", "[rl][config]") {
   CHECK(c.ppo.max_grad_norm == 1.0);
   CHECK(c.ppo.entropy_coef == 0.0);
   CHECK(c.ppo.init_std == 0.8);
+  CHECK(c.ppo.cuda_graph);  // bidex's own: replayed only on a CUDA device
   CHECK(c.batch() == 2048 * 8);
 }
 
@@ -82,6 +83,7 @@ TEST_CASE("overrides (-o) change nested keys with YAML values", "[rl][config]") 
   CHECK(c.ppo.value_norm);
   CHECK(c.steps == 2000000);
   CHECK(c.seed == 7);
+  CHECK_FALSE(resolve("catch_underarm", {"ppo.cuda_graph=false"}).ppo.cuda_graph);
   // an override wins over the per-task column
   CHECK(resolve("lift_underarm", {"ppo.horizon=3"}).ppo.horizon == 3);
 }
@@ -100,6 +102,7 @@ TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected an
   require_config_error(res({"ppo=1"}), "ppo", "a key below it", "a section");
   require_config_error(res({"ppo.epochs=many"}), "ppo.epochs", "integer", "many");
   require_config_error(res({"ppo.gamma=1.5"}), "ppo.gamma", "[0, 1]", "1.5");
+  require_config_error(res({"ppo.cuda_graph=sometimes"}), "ppo.cuda_graph", "true or false", "sometimes");
   require_config_error(res({"ppo.activation=swish"}), "ppo.activation", "elu", "swish");
   require_config_error(res({"ppo.hidden=[]"}), "ppo.hidden", "at least one", "[]");
   require_config_error(res({"train.device=tpu"}), "train.device", "cuda", "tpu");
