@@ -63,13 +63,7 @@ double flat_step(rl::ActorCritic& m, rl::FlatAdam& opt, const Batch& b, double l
 // flat gradient against a norm of norms; a division and a product against addcdiv_), by a few
 // float ulps of the O(1) weights, while a step moves them by about lr (1e-3 to 1e-2): a bound of
 // 1e-6 tells the two apart from any error of the update.
-double max_diff(rl::ActorCritic& a, rl::ActorCritic& b) {
-  double worst = 0;
-  auto pa = a->parameters(), pb = b->parameters();
-  for (size_t k = 0; k < pa.size(); ++k)
-    worst = std::max(worst, (pa[k] - pb[k]).abs().max().item<double>());
-  return worst;
-}
+double max_diff(rl::ActorCritic& a, rl::ActorCritic& b) { return test::max_param_diff(*a, *b); }
 
 // The step's learning rate and clip: the clip binds on even steps (large loss, max_norm 0.5),
 // never on odd ones (tiny loss, max_norm 1e3).

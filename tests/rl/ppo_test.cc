@@ -308,14 +308,6 @@ rl::Rollout noisy_rollout(rl::ActorCritic& m, int64_t T, int64_t N, int64_t D, i
   return r;
 }
 
-double max_abs_diff(rl::ActorCritic& a, rl::ActorCritic& b) {
-  double worst = 0;
-  auto pa = a->parameters(), pb = b->parameters();
-  for (size_t k = 0; k < pa.size(); ++k)
-    worst = std::max(worst, (pa[k] - pb[k]).abs().max().item<double>());
-  return worst;
-}
-
 }  // namespace
 
 TEST_CASE("PPO's update equals the update with LibTorch's Adam and the host's KL rule",
@@ -338,7 +330,7 @@ TEST_CASE("PPO's update equals the update with LibTorch's Adam and the host's KL
   rl::ActorCritic ref_m(D, A, c);
   rl::Ppo ppo(m, c);
   ReferencePpo ref(ref_m, c);
-  REQUIRE(max_abs_diff(m, ref_m) == 0);
+  REQUIRE(test::max_param_diff(*m, *ref_m) == 0);
   for (int u = 0; u < 3; ++u) {
     torch::manual_seed(20 + u);
     const auto r = noisy_rollout(ref_m, T, N, D, A, u == 0 ? 0.3 : 0.02);
@@ -348,7 +340,7 @@ TEST_CASE("PPO's update equals the update with LibTorch's Adam and the host's KL
     torch::manual_seed(30 + u);
     const auto want = ref.update(r, last);
     INFO("update " << u);
-    CHECK(max_abs_diff(m, ref_m) < 1e-6);  // float rounding (3e-8 seen); a step moves ~lr
+    CHECK(test::max_param_diff(*m, *ref_m) < 1e-6);  // float rounding (3e-8 seen); a step moves ~lr
     CHECK(st.policy_loss == Approx(want.policy_loss).epsilon(1e-5).margin(1e-7));
     CHECK(st.value_loss == Approx(want.value_loss).epsilon(1e-5));
     CHECK(st.entropy == Approx(want.entropy).epsilon(1e-5));

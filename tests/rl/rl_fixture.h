@@ -6,6 +6,7 @@
 #include <torch/torch.h>
 #undef CHECK
 
+#include <algorithm>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -52,6 +53,15 @@ inline rl::TrainOptions quiet() {
   rl::TrainOptions o;
   o.progress = false;
   return o;
+}
+
+// Largest |a - b| over the two modules' parameters, in order (two copies of one network).
+inline double max_param_diff(torch::nn::Module& a, torch::nn::Module& b) {
+  double worst = 0;
+  auto pa = a.parameters(), pb = b.parameters();
+  for (size_t k = 0; k < pa.size(); ++k)
+    worst = std::max(worst, (pa[k] - pb[k]).abs().max().item<double>());
+  return worst;
 }
 
 }  // namespace bidex::test
