@@ -96,14 +96,6 @@ Ppo::Ppo(ActorCritic model, const PpoConfig& config)
 
 Ppo::~Ppo() = default;
 
-bool Ppo::graphed() const {
-#ifdef BIDEX_TORCH_CUDA
-  return graph_ && graph_->graph;
-#else
-  return false;
-#endif
-}
-
 void Ppo::minibatch(const Rows& r, const torch::Tensor& idx, bool timed) {
   auto mark = [&](const char* stage) {
     if (timed) timer_.mark(stage);

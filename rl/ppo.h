@@ -68,10 +68,6 @@ class Ppo {
   // optimizer, stats, read_stats; with a CUDA graph, graph_step in place of forward ... stats)
   // and counts its host synchronisations (one: read_stats).
   StageTimer& timer() { return timer_; }
-  // Whether update() replays its minibatch step as a CUDA graph: `cuda_graph` on, the model on
-  // a CUDA device, LibTorch built with CUDA, and one update already run (it warms the graph's
-  // stream up).
-  bool graphed() const;
 
  private:
   // The rows an update's minibatches draw from, [B, ...] on the device.
