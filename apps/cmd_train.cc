@@ -275,7 +275,7 @@ void add_train_command(CLI::App& app) {
                 "(the simulation waits after each stage)");
   cmd->footer(
       "Examples:\n"
-      "  bidex train --task catch_underarm_raise          # a small run, about 35 s on 2 cores\n"
+      "  bidex train --task catch_underarm_raise          # a small run, about 10 s on 2 cores\n"
       "  bidex train --task hand_over --algo ppo -o env.slots=64 -o train.steps=200000\n"
       "  bidex train --task hand_over --algo trpo -o trpo.max_kl=0.05\n"
       "  bidex train --task hand_over --algo sac -o env.slots=64 -o sac.batch_size=256\n"

@@ -11,9 +11,12 @@
 
 #include "apps/commands.h"
 #include "core/error.h"
+#include "core/idle_threads.h"
 #include "marl/algorithms.h"
 #include "metarl/algorithms.h"
 #include "offline/algorithms.h"
+
+BIDEX_REST_IDLE_THREADS_BEFORE_LIBRARIES;
 
 namespace bidex::apps {
 namespace {

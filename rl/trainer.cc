@@ -4,6 +4,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <optional>
@@ -19,6 +20,7 @@
 #include "core/clock.h"
 #include "core/error.h"
 #include "core/files.h"
+#include "core/idle_threads.h"
 #include "core/progress.h"
 #include "rl/algorithm.h"
 #include "rl/checkpoint.h"
@@ -597,13 +599,20 @@ void write_run_json(const Session& s, const TrainOptions& opt, bool resumed) {
     j["started"] = utc_now();
     j["sessions"] = nlohmann::json::array();
   }
+  // how idle threads waited (core/idle_threads.h): CPU training speed depends on it
+  nlohmann::json idle = nlohmann::json::object();
+  for (const auto& t : kIdleThreadSettings) {
+    const char* v = std::getenv(t.name);
+    idle[t.name] = v ? nlohmann::json(v) : nlohmann::json();
+  }
   j["sessions"].push_back({{"time", utc_now()},
                            {"command", opt.command},
                            {"device", s.device.str()},
                            {"sim_device", s.sim_device},
                            {"sim_device_reason", s.sim_why},
                            {"from_update", s.update},
-                           {"threads", s.env->threads()}});
+                           {"threads", s.env->threads()},
+                           {"idle_threads", idle}});
   write_file_atomic(path, j.dump(2) + "\n");
 }
 

@@ -9,6 +9,10 @@
 
 #include <unistd.h>
 
+#include "core/idle_threads.h"
+
+BIDEX_REST_IDLE_THREADS_BEFORE_LIBRARIES;  // as the bidex command
+
 int main(int argc, char** argv) {
   std::string dir;
   if (!std::getenv("BIDEX_REGISTRY")) {

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <thread>
 
+#include <nlohmann/json.hpp>
+
 #include <unistd.h>
 
 #include "tests/rl/rl_fixture.h"
@@ -359,6 +361,28 @@ TEST_CASE("SIGINT during training writes a checkpoint that --resume continues", 
   INFO(r.out);
   CHECK(r.rc == 130);
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == at + 2);
+}
+
+TEST_CASE("bidex starts with idle threads that sleep, unless the user chose, and run.json says so",
+          "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  const std::string args = "train --task catch_underarm_raise -o env.slots=4 -o train.steps=64 "
+                           "-o ppo.hidden=[16] -o train.device=cpu --no-registry --run ";
+  auto idle_threads = [&](const std::string& env, const std::string& dir) {
+    std::string cmd = "env -u OMP_WAIT_POLICY -u OPENBLAS_THREAD_TIMEOUT " + env + " '";
+    cmd.append(BIDEX_BINARY).append("' ").append(args).append(dir);
+    auto r = test::run_command(cmd);
+    INFO(r.out);
+    REQUIRE(r.rc == 0);
+    return nlohmann::json::parse(read_file(dir + "/run.json"))["sessions"][0]["idle_threads"];
+  };
+  // core/idle_threads.h: started again with the settings before any library read them
+  auto unset = idle_threads("", tmp.file("unset"));
+  CHECK(unset["OMP_WAIT_POLICY"] == "passive");
+  CHECK(unset["OPENBLAS_THREAD_TIMEOUT"] == "4");
+  auto chosen = idle_threads("OMP_WAIT_POLICY=active", tmp.file("chosen"));
+  CHECK(chosen["OMP_WAIT_POLICY"] == "active");
+  CHECK(chosen["OPENBLAS_THREAD_TIMEOUT"] == "4");
 }
 
 TEST_CASE("bidex render --run writes the frames of one episode of the trained policy",
