@@ -75,6 +75,14 @@ def rows_of(path):
     return [r for r in csv.DictReader(open(path)) if r["return"] != ""]
 
 
+def last_row(path):
+    """The last update of a metrics.csv (None for a missing or empty file)."""
+    if not os.path.exists(path):
+        return None
+    rows = list(csv.DictReader(open(path)))
+    return rows[-1] if rows else None
+
+
 def rising(rows):
     """Whether the mean training return (without goal bonus) or success of the last 10M
     slot-steps beats that of the 10M before by more than 2%."""
@@ -97,6 +105,9 @@ def summarise(outdir, spec):
     name = spec.replace("/", "-")
     d = os.path.join(outdir, name)
     rows = rows_of(f"{d}/metrics.csv")
+    # how far it trained: the last update, whether or not episodes ended in it (fixed-length
+    # episodes end together, so the last update with a return can be a few updates earlier)
+    trained = last_row(f"{d}/metrics.csv")
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)
@@ -110,7 +121,8 @@ def summarise(outdir, spec):
         "task_config": None if config is None else f"bench/sweep/{config}.yaml",
         "overrides": None if overrides is None else f"bench/sweep/{overrides}.overrides",
         "commands": commands,
-        "slot_steps": int(end), "wall_s": float(rows[-1]["wall_s"]) if rows else 0.0,
+        "slot_steps": int(float(trained["steps"])) if trained else 0,
+        "wall_s": float(trained["wall_s"]) if trained else 0.0,
         "finished": bool(summary and summary.get("finished")),
         "train_fps_median": fps[len(fps) // 2] if fps else None,
         "train_return_last_10M": window(rows, end - 1e7, end, lambda r: num(r, "return")),
