@@ -12,6 +12,7 @@
 #include <CLI/CLI.hpp>
 
 #include "apps/commands.h"
+#include "apps/programs.h"
 #include "core/error.h"
 #include "core/files.h"
 #include "registry/registry.h"
@@ -351,14 +352,17 @@ void add_registry_command(CLI::App& app) {
     auto o = std::make_shared<Opts>();
     auto* cmd = report->add_subcommand(
         "age", "Each task's latest score in human-age order with its reference and normalised "
-               "scores, as a table and an SVG plot of normalised score against human age");
+               "scores, as a table (printed, and a .txt file) and a plot of normalised score against "
+               "human age (SVG, and PNG with rsvg-convert)");
     add_registry_option(cmd, o->registry);
     cmd->add_option("--suite", o->suite, "Scores of the latest scored run of this suite");
     cmd->add_option("--run", o->run, "Scores of this run (id, see bidex registry scores)");
     auto* eval = cmd->add_option(
         "--eval", o->eval,
         "Scores after adaptation of this meta-RL evaluation (id, see bidex registry evals)");
-    cmd->add_option("--out", o->out, "SVG file (default: age_report.svg beside the registry)");
+    cmd->add_option("--out", o->out,
+                    "SVG file (default: age_report.svg beside the registry); the table goes beside "
+                    "it as .txt, and the plot as .png when rsvg-convert is installed");
     cmd->footer(
         "Without --suite, --run or --eval, each task's score is that of the latest run that "
         "scored it.\n"
@@ -375,17 +379,22 @@ void add_registry_command(CLI::App& app) {
       Registry r(registry_path(o->registry));
       const registry::AgeReport rep = by_eval ? registry::age_report_evaluation(r, o->eval)
                                               : registry::age_report(r, o->suite, o->run);
-      std::fputs(registry::age_table(rep).c_str(), stdout);
+      std::string table = registry::age_table(rep);
       const auto left_out = registry::unplotted(rep);
       if (!left_out.empty()) {
         std::string list;
         for (auto& l : left_out) list.append(list.empty() ? "" : ", ").append(l);
-        std::printf("left out of the plot (no normalised score): %s\n", list.c_str());
+        table += "left out of the plot (no normalised score): " + list + "\n";
       }
+      std::fputs(table.c_str(), stdout);
       const std::string out = o->out.empty() ? folder_of(r.path()) + "/age_report.svg" : o->out;
       write_file_atomic(out, registry::age_svg(rep));
       std::printf("plot (%zu of %zu tasks): %s\n", rep.rows.size() - left_out.size(),
                   rep.rows.size(), out.c_str());
+      // beside the plot: the table as text, and the plot as a PNG
+      const std::string txt = without_svg(out) + ".txt";
+      write_file_atomic(txt, table);
+      std::printf("table: %s\n%s\n", txt.c_str(), png_beside(out).c_str());
     });
   }
 }

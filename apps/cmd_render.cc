@@ -7,14 +7,13 @@
 #include <string>
 #include <vector>
 
-#include <spawn.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 
 #include "apps/commands.h"
+#include "apps/programs.h"
 #include "core/error.h"
 #include "rl/trainer.h"
 #include "sim/render.h"
@@ -22,41 +21,7 @@
 #include "tasks/env.h"
 #include "tasks/registry.h"
 
-extern char** environ;
-
 namespace bidex::apps {
-
-namespace {
-
-// The first `name` on PATH that can be executed, or "".
-std::string find_on_path(const std::string& name) {
-  const char* path = std::getenv("PATH");
-  std::string p = path ? path : "";
-  size_t a = 0;
-  while (a <= p.size()) {
-    size_t c = p.find(':', a);
-    if (c == std::string::npos) c = p.size();
-    std::string cand = p.substr(a, c - a);
-    cand.append("/").append(name);
-    if (c > a && ::access(cand.c_str(), X_OK) == 0) return cand;
-    a = c + 1;
-  }
-  return "";
-}
-
-// Runs a program with arguments, waits; returns its exit status (-1 if it could not start).
-int run_program(const std::vector<std::string>& args) {
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
-  argv.push_back(nullptr);
-  pid_t pid;
-  if (::posix_spawn(&pid, args[0].c_str(), nullptr, nullptr, argv.data(), environ) != 0) return -1;
-  int status = 0;
-  if (::waitpid(pid, &status, 0) < 0) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-}
-
-}  // namespace
 
 void add_render_command(CLI::App& app) {
   struct Opts {

@@ -14,8 +14,9 @@ packages=(build-essential cmake ninja-build ccache git pkg-config
           libosmesa6-dev libpng-dev   # headless rendering (sim/render): OSMesa and libpng
           python3-dev pybind11-dev    # the GPU backend embeds Python (sim/warp_backend)
           libhdf5-dev libssl-dev      # offline datasets: HDF5 files, SHA-256 checksums
-          libopenblas0-pthread)       # LibTorch's CPU matrix products: 2-4.5x faster updates than
+          libopenblas0-pthread        # LibTorch's CPU matrix products: 2-4.5x faster updates than
                                       # the reference BLAS (bench/results/blas-2core.txt)
+          librsvg2-bin)               # rsvg-convert: PNG copies of SVG plots (registry report age)
 build_dir=${BIDEX_BUILD_DIR:-build}
 
 if [[ "${1:-}" != "--no-apt" ]]; then

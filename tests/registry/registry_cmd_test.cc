@@ -311,6 +311,26 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   CHECK(xs[1] == xs[2]);  // both at 9-10 months
   CHECK(xs[2] < xs[3]);
   CHECK(has_text(svg, "left out, no normalised score: push_block, pen"));
+  // beside the plot: the printed table as text, and the plot as a PNG (rsvg-convert, which
+  // scripts/setup.sh installs), or a line saying how to get one
+  const std::string txt = read_file(dir.file("sub/age_report.txt"));
+  CHECK(r.out.rfind(txt, 0) == 0);  // the table and the left-out line, as printed
+  CHECK(has_row(txt, {"scissors", "7", "easy", "4", "428.6", "1.835", "570.9", "0.750"}));
+  CHECK(has_text(r.out, "table: " + dir.file("sub/age_report.txt")));
+  if (run_command("command -v rsvg-convert").rc == 0) {
+    CHECK(has_text(r.out, "png: " + dir.file("sub/age_report.png")));
+    CHECK(read_file(dir.file("sub/age_report.png")).rfind("\x89PNG\r\n", 0) == 0);
+  } else {
+    WARN("rsvg-convert is not installed: the PNG is not checked");
+  }
+  const CommandResult no_rsvg = run_command(std::string("PATH=/nonexistent '") + BIDEX_BINARY +
+                                            "' registry report age --registry " + q(path) +
+                                            " --out " + q(dir.file("bare.svg")));
+  CHECK(no_rsvg.rc == 0);
+  CHECK(has_text(no_rsvg.out, "rsvg-convert is not on PATH: no PNG of " + dir.file("bare.svg") +
+                                  " (apt-get install librsvg2-bin)"));
+  CHECK(file_exists(dir.file("bare.txt")));
+  CHECK_FALSE(file_exists(dir.file("bare.png")));
 
   // the suite's latest run only, to a chosen file
   const std::string out = dir.file("suite.svg");
