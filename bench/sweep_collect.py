@@ -68,19 +68,19 @@ def recent(rows, i, f):
     return weighted(pairs) if n >= RECENT_EPISODES else None
 
 
+def updates_of(path):
+    """Every update of a metrics.csv (an empty list for a missing file)."""
+    return list(csv.DictReader(open(path))) if os.path.exists(path) else []
+
+
+def ended(updates):
+    """The updates that ended episodes."""
+    return [r for r in updates if r["return"] != ""]
+
+
 def rows_of(path):
     """The updates of a metrics.csv that ended episodes (an empty list for a missing file)."""
-    if not os.path.exists(path):
-        return []
-    return [r for r in csv.DictReader(open(path)) if r["return"] != ""]
-
-
-def last_row(path):
-    """The last update of a metrics.csv (None for a missing or empty file)."""
-    if not os.path.exists(path):
-        return None
-    rows = list(csv.DictReader(open(path)))
-    return rows[-1] if rows else None
+    return ended(updates_of(path))
 
 
 def rising(rows):
@@ -104,10 +104,11 @@ def summarise(outdir, spec):
     overrides = next((p[1:] for p in parts if p.startswith("o")), None)
     name = spec.replace("/", "-")
     d = os.path.join(outdir, name)
-    rows = rows_of(f"{d}/metrics.csv")
+    updates = updates_of(f"{d}/metrics.csv")
+    rows = ended(updates)
     # how far it trained: the last update, whether or not episodes ended in it (fixed-length
     # episodes end together, so the last update with a return can be a few updates earlier)
-    trained = last_row(f"{d}/metrics.csv")
+    trained = updates[-1] if updates else None
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)

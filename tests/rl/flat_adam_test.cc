@@ -59,11 +59,10 @@ double flat_step(rl::ActorCritic& m, rl::FlatAdam& opt, const Batch& b, double l
   return norm.item<double>();
 }
 
-// Largest |a - b| over all parameters. The two optimisers round differently (one norm of the
-// flat gradient against a norm of norms; a division and a product against addcdiv_), by a few
-// float ulps of the O(1) weights, while a step moves them by about lr (1e-3 to 1e-2): a bound of
-// 1e-6 tells the two apart from any error of the update.
-double max_diff(rl::ActorCritic& a, rl::ActorCritic& b) { return test::max_param_diff(*a, *b); }
+// Parameters compare with test::max_param_diff. The two optimisers round differently (one norm
+// of the flat gradient against a norm of norms; a division and a product against addcdiv_), by
+// a few float ulps of the O(1) weights, while a step moves them by about lr (1e-3 to 1e-2): a
+// bound of 1e-6 tells the two apart from any error of the update.
 
 // The step's learning rate and clip: the clip binds on even steps (large loss, max_norm 0.5),
 // never on odd ones (tiny loss, max_norm 1e3).
@@ -78,7 +77,7 @@ TEST_CASE("FlatAdam steps as LibTorch's Adam after clip_grad_norm_", "[rl][ppo][
   torch::optim::Adam ref_opt(ref->parameters(), torch::optim::AdamOptions(1e-3));
   rl::FlatAdam opt(flat->parameters(), 1e-3);
   REQUIRE(flat->parameters().size() == 13);
-  CHECK(max_diff(flat, ref) == 0);  // moving into the flat buffer keeps the values
+  CHECK(test::max_param_diff(*flat, *ref) == 0);  // moving into the flat buffer keeps the values
   for (int k = 0; k < 12; ++k) {
     const auto b = batch_at(k);
     const double want = reference_step(ref, ref_opt, b, lr_at(k), max_norm_at(k));
@@ -100,7 +99,7 @@ TEST_CASE("FlatAdam steps as LibTorch's Adam after clip_grad_norm_", "[rl][ppo][
     opt.step();
     CHECK(got == Approx(want).epsilon(1e-6));
     INFO("step " << k);
-    CHECK(max_diff(flat, ref) < 1e-6);
+    CHECK(test::max_param_diff(*flat, *ref) < 1e-6);
   }
   CHECK(opt.steps() == 12);
   CHECK(opt.lr() == lr_at(11));
@@ -118,7 +117,7 @@ TEST_CASE("FlatAdam follows parameters and gradients whose storage was replaced"
       const double want = reference_step(ref, ref_opt, b, lr_at(k), max_norm_at(k));
       CHECK(flat_step(flat, opt, b, lr_at(k), max_norm_at(k)) == Approx(want).epsilon(1e-6));
       INFO("step " << k);
-      CHECK(max_diff(flat, ref) < 1e-6);
+      CHECK(test::max_param_diff(*flat, *ref) < 1e-6);
     }
   };
   both(3);
@@ -138,7 +137,7 @@ TEST_CASE("FlatAdam follows parameters and gradients whose storage was replaced"
       (*net)->load(in);
     }
     REQUIRE(flat->parameters()[0].data_ptr() != before);
-    REQUIRE(max_diff(flat, other) == 0);
+    REQUIRE(test::max_param_diff(*flat, *other) == 0);
   }
   both(3);
   // set_ on one parameter, and gradients undefined after zero_grad() (LibTorch 2's
@@ -157,7 +156,7 @@ TEST_CASE("FlatAdam follows parameters and gradients whose storage was replaced"
   loss_of(flat, b).backward();
   CHECK(opt.clip_grad_norm(max_norm_at(k)).item<double>() == Approx(want).epsilon(1e-6));
   opt.step();
-  CHECK(max_diff(flat, ref) < 1e-6);
+  CHECK(test::max_param_diff(*flat, *ref) < 1e-6);
   ++k;
   both(3);
 }
@@ -202,8 +201,8 @@ TEST_CASE("FlatAdam's saved state continues the run; a state of other sizes is r
     step(b, opt_b);
     step(fresh, opt_fresh);
   }
-  CHECK(max_diff(b, a) == 0);
-  CHECK(max_diff(fresh, a) > 1e-3);  // the moments and the step count matter
+  CHECK(test::max_param_diff(*b, *a) == 0);
+  CHECK(test::max_param_diff(*fresh, *a) > 1e-3);  // the moments and the step count matter
   // the state of a network of other widths: an error naming both sizes
   rl::PpoConfig c;
   c.hidden = {16, 9};
