@@ -559,7 +559,9 @@ void add_eval_command(CLI::App& app) {
                   "Suite id or file (with --random or --zero): each task of its train split (or "
                   "--split)");
   cmd->add_option("--task-config", o->task_config,
-                  "Task YAML (with --random or --zero and --task; default: the task's own)");
+                  "Task YAML (with --random or --zero and --task; default: the task's own), or with "
+                  "--run of a task run another YAML of its task to play (default: the run's own), "
+                  "e.g. the task's own after training under a curriculum");
   cmd->add_flag("--set-reference", o->set_reference,
                 "With --random: store each task's mean return as its 'random' reference score in "
                 "the registry");
@@ -588,6 +590,8 @@ void add_eval_command(CLI::App& app) {
                 "Meta-RL: do not store the evaluation in the run's registry");
   cmd->footer("Examples:\n"
               "  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200\n"
+              "  bidex eval --run runs/re_orientation-ppo-20261127-120000-s0 "
+              "--task-config tasks/re_orientation/re_orientation.yaml\n"
               "  bidex eval --random --task hand_over --episodes 1000 --set-reference\n"
               "  bidex eval --zero --suite ML20 --split test --episodes 8\n"
               "  bidex eval --run runs/ML1-promp-20261124-070000-s0 --split test "
@@ -626,18 +630,21 @@ void add_eval_command(CLI::App& app) {
     } else {
       if (o->run.empty())
         throw Error("eval: give --run DIR (or --random or --zero with --task or --suite)");
-      if (!o->task.empty() || !o->suite.empty() || o->set_reference || !o->task_config.empty())
-        throw Error("eval: --task, --suite, --task-config and --set-reference go with --random "
-                    "(--task, --suite and --task-config also with --zero)");
+      if (!o->task.empty() || !o->suite.empty() || o->set_reference)
+        throw Error("eval: --task, --suite and --set-reference go with --random (--task and "
+                    "--suite also with --zero)");
       rl::LoadedPolicy policy(o->run, o->checkpoint);
       if (!o->split.empty() || policy.adaptive()) {  // meta-RL's protocol
+        if (!o->task_config.empty())
+          throw Error("eval: --task-config goes with a task run, not a meta-RL run's adaptation");
         eval_meta(*o, policy);
         return;
       }
       if (o->no_registry) throw Error("eval: --no-registry goes with meta-RL runs (--split)");
-      r = rl::evaluate(policy, o->episodes, o->seed, o->threads);
+      r = rl::evaluate(policy, o->episodes, o->seed, o->threads, o->task_config);
       target = policy.config().target();
       what = target;
+      if (!o->task_config.empty()) what += " under " + o->task_config;
       checkpoint = policy.checkpoint();
       update = policy.update();
       what += ", checkpoint " + checkpoint + " (update " + std::to_string(update) + ")";
@@ -677,6 +684,7 @@ void add_eval_command(CLI::App& app) {
                        {"mean_return", e.mean_return}, {"success_rate", e.success}});
       nlohmann::json j = {{"run", o->run},
                           {"task", target},
+                          {"task_config", o->task_config},
                           {"policy", policy},
                           {"checkpoint", checkpoint},
                           {"update", update},

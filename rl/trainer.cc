@@ -771,8 +771,15 @@ void set_policy_threads(int threads) {
   if (threads > 0) torch::set_num_threads(threads);
 }
 
-EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads) {
-  const auto& c = policy.config();
+EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads,
+                    const std::string& task_config) {
+  TrainConfig c = policy.config();
+  if (!task_config.empty()) {
+    if (!c.suite.empty())
+      throw Error("eval: a task YAML (--task-config " + task_config +
+                  ") replaces a task run's own; this run trained on the suite " + c.suite);
+    c.task_config = task_config;
+  }
   return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
     policy.check_fits(env, c.target() + " now");
     return [&policy](const float* obs, int n, float* act) { policy.act(obs, n, act); };

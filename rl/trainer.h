@@ -153,8 +153,11 @@ struct EvalResult {
 };
 
 // Runs `episodes` slots for one episode each with the policy's mean action (a suite run:
-// `episodes` per task of its train split).
-EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads);
+// `episodes` per task of its train split). `task_config`, for a task run: another YAML of the
+// run's task to play (e.g. the task's own after a run that trained under a curriculum); empty:
+// the run's own.
+EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads,
+                    const std::string& task_config = "");
 
 // The same with actions uniform in [-1, 1] (a random policy, drawn from `seed`): the reference
 // "random" score of a task or suite. Only the config's task or suite (and task_config) are used.

@@ -16,6 +16,7 @@
 #include "rl/checkpoint.h"
 #include "rl/metrics.h"
 #include "rl/trainer.h"
+#include "tasks/registry.h"
 #include "sim/physics.h"
 
 using namespace bidex;
@@ -284,6 +285,26 @@ TEST_CASE("a loaded policy evaluates: returns, success and lengths of whole epis
   // deterministic: the same seed gives the same result
   auto r2 = rl::evaluate(p, 6, 9, 1);
   CHECK(r2.mean_return == r.mean_return);
+  // under another YAML of its task (a curriculum run scored on the task itself): its values
+  // rule, here a longer episode
+  std::string yaml = read_file(tasks::default_task_config("catch_underarm_raise"));
+  const std::string len = "episode_length: 40";
+  REQUIRE(yaml.find(len) != std::string::npos);
+  yaml.replace(yaml.find(len), len.size(), "episode_length: 55");
+  const std::string other = tmp.write("long.yaml", yaml);
+  auto r3 = rl::evaluate(p, 6, 9, 1, other);
+  CHECK(r3.mean_length == 55);
+  auto e = test::bidex_run("eval --run " + dir + " --task-config " + other +
+                           " --episodes 2 --threads 1 --json " + tmp.file("long.json"));
+  INFO(e.out);
+  REQUIRE(e.rc == 0);
+  CHECK(e.out.find("under " + other) != std::string::npos);
+  CHECK(e.out.find("mean length 55.0") != std::string::npos);
+  CHECK(read_file(tmp.file("long.json")).find("\"task_config\": \"" + other) != std::string::npos);
+  // a YAML that is not the task's is a clear error
+  e = test::bidex_run("eval --run " + dir + " --task-config " +
+                      tasks::default_task_config("hand_over") + " --episodes 2 --threads 1");
+  CHECK(e.rc != 0);
 }
 
 TEST_CASE("bidex train, eval and render --run work from the command line", "[rl][train][apps]") {
