@@ -4,7 +4,9 @@
 #   bench/sweep_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
-#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME]: seed (0 by
+#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME] (TASK may be
+#       a suite of configs/suites: multi-task PPO on its pack at $SWEEP_SUITE_SLOTS slots, default
+#       65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64): seed (0 by
 #       default), slot-steps in millions (default $SWEEP_STEPS), a task YAML bench/sweep/NAME.yaml
 #       in place of the task's default (env.task_config) and training overrides
 #       bench/sweep/NAME.overrides (KEY=VALUE lines, each given as -o after the sweep's own; the
@@ -14,7 +16,7 @@
 #       minibatches (the task's section of configs/train/ppo.yaml applies; one that sets the
 #       task's slots keeps its slots and minibatches) to $SWEEP_STEPS
 #       slot-steps (default 50M), then the final policy's mean action over 256 episodes on the
-#       CPU path. Once every lane of its GPU is through its runs, a lane that has time left
+#       CPU path (under the task's own YAML when NAME.yaml turns a curriculum on). Once every lane of its GPU is through its runs, a lane that has time left
 #       resumes, towards 100M, its runs whose return or success still rose over their last 10M
 #       slot-steps, and evaluates them again. Every run stops 240 s before the deadline, SECONDS
 #       after this call, whatever it has reached, and is evaluated by then.
@@ -46,6 +48,12 @@ device=${SWEEP_DEVICE:-cuda}
 reserve=240  # seconds a run stops before the deadline, for its evaluation (8 threads)
 mkdir -p "$out" "$runs"
 
+suite_slots=${SWEEP_SUITE_SLOTS:-65536}     # a suite's slots in all (the MT20 pack's efficient size)
+suite_episodes=${SWEEP_SUITE_EPISODES:-64}  # a suite's evaluation: episodes per task
+
+# is_suite NAME: exit 0 when NAME is a suite of configs/suites (MT20: multi-task PPO on its pack)
+is_suite() { [[ -f configs/suites/$1.yaml ]]; }
+
 # run_dir RUN: the run folder of TASK or TASK/sSEED
 run_dir() { echo "$runs/${1//\//-}"; }
 
@@ -59,6 +67,19 @@ sys.exit(0 if "slots" in (t.get("env") or {}) else 1)' "$1"
 # still_rising RUN_DIR: exit 0 when the run still rises (bench/sweep_collect.py's rule)
 still_rising() { python3 bench/sweep_collect.py --rising "$1/metrics.csv"; }
 
+# eval_yaml RUN: the task's own YAML when the run's bench/sweep/NAME.yaml (cNAME) turns a
+# curriculum on, so that its evaluation plays the task itself; else nothing (the run's own YAML)
+eval_yaml() {
+  local p task=${1%%/*}
+  IFS=/ read -ra p <<<"$1"
+  for p in "${p[@]:1}"; do
+    [[ $p == c* ]] || continue
+    python3 -c 'import sys, yaml
+c = yaml.safe_load(open(sys.argv[1])).get("curriculum") or {}
+sys.exit(0 if c.get("enabled") else 1)' "bench/sweep/${p#c}.yaml" && echo "tasks/$task/$task.yaml"
+  done
+}
+
 # lane GPU DEADLINE RUN...: trains and evaluates the runs one after the other, then extends
 lane() {
   local gpu=$1 deadline=$2
@@ -66,9 +87,12 @@ lane() {
   export CUDA_VISIBLE_DEVICES=$gpu
   local spec task seed msteps cfg part p dir log left line
   evaluate() {  # evaluate RUN
-    local log="$out/${1//\//-}"
-    local args=(eval --run "$(run_dir "$1")" --episodes 256 --seed 2026 --threads 8
+    local log="$out/${1//\//-}" yaml episodes=256
+    is_suite "${1%%/*}" && episodes=$suite_episodes
+    local args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
                 --json "$log/eval.json")
+    yaml=$(eval_yaml "$1")
+    [[ -z $yaml ]] || args+=(--task-config "$yaml")
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
   }
@@ -96,6 +120,10 @@ lane() {
     local args
     if [[ -f $dir/config.yaml ]]; then
       args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
+    elif is_suite "$task"; then  # multi-task PPO on the suite's pack (issue 37)
+      args=(train --suite "$task" --device "$device" --run "$dir" --no-registry --time-limit "$left"
+            -o env.slots="$suite_slots" -o seed="$seed" -o train.steps="$msteps"
+            -o train.save_interval=50 "${cfg[@]}")
     else
       # the sweep's slots and minibatches, unless the task's section of ppo.yaml sets its own
       local scale=(-o env.slots="$slots" -o ppo.minibatches=16)
@@ -148,8 +176,8 @@ start)
     gpu=${spec%%=*}
     IFS=, read -ra list <<<"${spec#*=}"
     echo "${list[*]}" >>"$out/lanes"
-    export -f lane run_dir still_rising own_slots
-    export out runs steps slots device bidex reserve
+    export -f lane run_dir still_rising own_slots eval_yaml is_suite
+    export out runs steps slots device bidex reserve suite_slots suite_episodes
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &
   done

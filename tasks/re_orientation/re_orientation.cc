@@ -16,7 +16,8 @@ namespace {
 
 ReOrientationParams load(const std::string& file) {
   const YamlView root = YamlView::load_file(file);
-  root.allow_keys({"episode_length", "hands", "base", "objects", "reset", "reward", "termination"});
+  root.allow_keys({"episode_length", "hands", "base", "objects", "reset", "reward", "termination",
+                   "curriculum"});
   ReOrientationParams p;
   p.common = manip::load_common(root, file);
   {
@@ -56,6 +57,14 @@ ReOrientationParams load(const std::string& file) {
     const auto m = mode.as<std::string>();
     if (m != "both" && m != "each") mode.fail("'both' or 'each'", mode.repr());
     p.each_goal = m == "each";
+  }
+  if (root.has("curriculum")) {  // optional: off when absent
+    auto c = root.child("curriculum");
+    c.allow_keys({"enabled", "start", "up", "down"});
+    p.curriculum = c.req<bool>("enabled");
+    p.curriculum_start = read_number(c, "start", 0, 1, "a level in [0, 1]");
+    p.curriculum_up = read_number(c, "up", 0, 1, "a step in [0, 1]");
+    p.curriculum_down = read_number(c, "down", 0, 1, "a step in [0, 1]");
   }
   {
     auto t = root.child("termination");
@@ -111,6 +120,10 @@ ReOrientation::ReOrientation(const TaskSpec& spec, ReOrientationParams p)
   g.goal_bonus = p_.goal_bonus;
   g.rotation_tolerance = p_.rotation_tolerance;
   g.each_goal = p_.each_goal;
+  g.curriculum = p_.curriculum;
+  g.curriculum_start = p_.curriculum_start;
+  g.curriculum_up = p_.curriculum_up;
+  g.curriculum_down = p_.curriculum_down;
   g.drop_height = p_.drop_height;
   g.t_pos = spec.term_index("position");
   g.t_rot[0] = spec.term_index("rotation1");

@@ -22,6 +22,9 @@ struct ReOrientationParams {
   double dist_scale = -10, rot_scale = 1, rot_eps = 0.1, action_penalty = -0.0002;
   double goal_bonus = 500, rotation_tolerance = 0.1;
   bool each_goal = false;  // goal_mode: "both" (false) or "each" (true), README
+  // curriculum (README "Learning"; ReOrientationProgram says what the values do)
+  bool curriculum = false;
+  double curriculum_start = 0, curriculum_up = 0.02, curriculum_down = 0.05;
   double drop_height = 0.2;
 };
 

@@ -31,6 +31,13 @@ struct ReOrientationProgram {
   double dist_scale = 0, rot_scale = 0, rot_eps = 0, action_penalty = 0;
   double goal_bonus = 0, rotation_tolerance = 0;
   bool each_goal = false;  // goal_mode each: a cube at its goal gets its own new goal
+  // curriculum (off by default; README "Learning"): a slot's level L (TaskParams::level) starts
+  // at curriculum_start, gains curriculum_up at every goal reached (a bonus) and loses
+  // curriculum_down at every reset, within [0, 1]; a new goal orientation is the last one (at a
+  // reset the cubes' start orientation) turned about a random axis by an angle uniform in
+  // [0, L pi]
+  bool curriculum = false;
+  double curriculum_start = 0, curriculum_up = 0, curriculum_down = 0;
   double drop_height = 0;
   int t_pos = -1, t_rot[2] = {-1, -1}, t_bonus = -1, t_action = -1;
 };
@@ -38,11 +45,20 @@ static_assert(std::is_trivially_copyable_v<ReOrientationProgram>,
               "copied to the device as bytes");
 
 // The goals in `which` (bit i: goal i) get one new random orientation, shared (the original's
-// shared goal rotation).
+// shared goal rotation); under the curriculum, `from` turned by at most the slot's level x pi.
 BIDEX_HD inline void re_orientation_new_goals(const ReOrientationProgram& p, SlotState& st,
-                                              SlotRng& rng, unsigned which = 3) {
+                                              SlotRng& rng, unsigned which, const double* from) {
   double q[4] = {1, 0, 0, 0};
-  if (p.random_goal_rotation) math::random_rotation(q, rng);
+  if (p.curriculum) {
+    const double z = rng.uniform(-1, 1), phi = rng.uniform(0, 2 * math::kPi);
+    const double r = math::sqrt(math::max(0.0, 1 - z * z));
+    const double axis[3] = {r * math::cos(phi), r * math::sin(phi), z};
+    double turn[4];
+    math::axis_angle_quat(turn, axis, rng.uniform(0, 1) * st.params.level * math::kPi);
+    math::mul_quat(q, turn, from);
+  } else if (p.random_goal_rotation) {
+    math::random_rotation(q, rng);
+  }
   for (int i = 0; i < 2; ++i) {
     if (!(which & (1u << i))) continue;
     auto& g = st.goal[i];
@@ -68,6 +84,10 @@ BIDEX_HD void re_orientation_place_markers(const ReOrientationProgram& p, const 
 template <class Real>
 BIDEX_HD void re_orientation_reset(const ReOrientationProgram& p, const sim::ResetRows<Real>& r,
                                    SlotState& st, SlotRng& rng) {
+  if (p.curriculum) {
+    double& level = st.params.level;
+    level = level < 0 ? p.curriculum_start : math::max(0.0, level - p.curriculum_down);
+  }
   randomise_hand_joints(p.hands, p.hand_dof_noise, rng, r);
   double noise[3] = {0, 0, 0};
   if (p.object_position_noise > 0)
@@ -79,7 +99,7 @@ BIDEX_HD void re_orientation_reset(const ReOrientationProgram& p, const sim::Res
     for (int k = 0; k < 3; ++k) q[k] = static_cast<Real>(p.obj[i].start[k] + noise[k]);
     for (int k = 0; k < 4; ++k) q[3 + k] = static_cast<Real>(qo[k]);
   }
-  re_orientation_new_goals(p, st, rng);
+  re_orientation_new_goals(p, st, rng, 3u, qo);
   re_orientation_place_markers(p, st, r.mocap_pos, r.mocap_quat);
 }
 
@@ -134,7 +154,10 @@ BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
     if (at) st.success = true;
   }
   if (at) {
-    re_orientation_new_goals(p, st, rng, at);
+    if (p.curriculum) st.params.level = math::min(1.0, st.params.level + p.curriculum_up);
+    const double from[4] = {st.goal[at & 1u ? 0 : 1][3], st.goal[at & 1u ? 0 : 1][4],
+                            st.goal[at & 1u ? 0 : 1][5], st.goal[at & 1u ? 0 : 1][6]};
+    re_orientation_new_goals(p, st, rng, at, from);
     re_orientation_place_markers(p, st, w.mocap_pos, w.mocap_quat);
   }
   return fell;

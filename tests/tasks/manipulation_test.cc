@@ -765,6 +765,63 @@ TEST_CASE("oracle: re_orientation's goal_mode each pays each cube at its goal an
   CHECK(t[term(*env, "goal_bonus")] == 1000);
 }
 
+TEST_CASE("re_orientation's curriculum: goals turned at most level x pi, the level up at each goal "
+          "and down at each reset", "[tasks][manip][oracle]") {
+  TaskTempDir dir;
+  const auto file = edited_yaml(dir, "re_orientation", {{"enabled", "true"}, {"start", "0.5"}});
+  auto env = make_env("re_orientation", 64, 3, 0, file);
+  const auto& o1 = object_of(*env, "object1");
+  auto cube_q = [&](int s) {
+    const double* q = env->batch().data(s)->qpos + o1.qpos_adr + 3;
+    return Q{q[0], q[1], q[2], q[3]};
+  };
+  auto angle = [](const Q& a, const Q& b) { return tasks::math::rot_distance(a.data(), b.data()); };
+  // every reset: the level down by 0.05 from its start, each slot's goal within level x pi of
+  // its cubes' start orientation, spread over that range
+  for (int round = 0; round < 3; ++round) {
+    if (round > 0) env->reset();
+    const double level = 0.5 - 0.05 * round;
+    double widest = 0;
+    for (int s = 0; s < env->nslot(); ++s) {
+      const auto& st = env->slot_state(s);
+      CHECK(st.params.level == Approx(level).epsilon(1e-12));
+      const Q g{st.goal[0][3], st.goal[0][4], st.goal[0][5], st.goal[0][6]};
+      const double a = angle(g, cube_q(s));
+      CHECK(a <= level * M_PI + 1e-9);
+      widest = std::max(widest, a);
+      for (int k = 3; k < 7; ++k) CHECK(st.goal[0][k] == st.goal[1][k]);  // shared, as ever
+    }
+    CHECK(widest > 0.75 * level * M_PI);
+  }
+  // both cubes at their goals: the bonus, the level up by 0.02, new goals within its x pi of
+  // the old ones
+  std::vector<double> t;
+  const double level = env->slot_state(0).params.level;
+  const Q old = re_orientation_goal_q(*env, 0);
+  place_object(*env, 0, "object1", re_orientation_goal_p(*env, 0), old);
+  place_object(*env, 0, "object2", re_orientation_goal_p(*env, 1), re_orientation_goal_q(*env, 1));
+  sync(*env, 0);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "goal_bonus")] == 500);
+  CHECK(env->slot_state(0).params.level == Approx(level + 0.02).epsilon(1e-12));
+  const Q now = re_orientation_goal_q(*env, 0);
+  CHECK(angle(now, old) <= (level + 0.02) * M_PI + 1e-9);
+  CHECK(angle(now, old) > 0);
+  CHECK(now == re_orientation_goal_q(*env, 1));
+  // start 0: the goals are the cubes' start orientation
+  const auto flat = edited_yaml(dir, "re_orientation", {{"enabled", "true"}, {"start", "0"}},
+                                "flat.yaml");
+  auto env0 = make_env("re_orientation", 8, 5, 0, flat);
+  for (int s = 0; s < env0->nslot(); ++s) {
+    const auto& g = env0->slot_state(s).goal[0];
+    const double* q = env0->batch().data(s)->qpos + o1.qpos_adr + 3;
+    for (int k = 0; k < 4; ++k) CHECK(g[3 + k] == Approx(q[k]).margin(1e-12));
+  }
+  // off (the default): the level is never started
+  auto plain = make_env("re_orientation", 2, 3);
+  CHECK(plain->slot_state(0).params.level == -1);
+}
+
 // ---- resets ----------------------------------------------------------------------------------
 
 TEST_CASE("re_orientation resets: shared noise and rotation, goals at the starts, hands in range",
