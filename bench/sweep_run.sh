@@ -6,7 +6,8 @@
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
 #       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME] (TASK may be
 #       a suite of configs/suites: multi-task PPO on its pack at $SWEEP_SUITE_SLOTS slots, default
-#       65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64): seed (0 by
+#       65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64, stopping
+#       $SWEEP_SUITE_RESERVE seconds before the deadline, default 600): seed (0 by
 #       default), slot-steps in millions (default $SWEEP_STEPS), a task YAML bench/sweep/NAME.yaml
 #       in place of the task's default (env.task_config) and training overrides
 #       bench/sweep/NAME.overrides (KEY=VALUE lines, each given as -o after the sweep's own; the
@@ -50,6 +51,11 @@ mkdir -p "$out" "$runs"
 
 suite_slots=${SWEEP_SUITE_SLOTS:-65536}     # a suite's slots in all (the MT20 pack's efficient size)
 suite_episodes=${SWEEP_SUITE_EPISODES:-64}  # a suite's evaluation: episodes per task
+# seconds a suite's run stops before the deadline, for its setup and its evaluation: --time-limit
+# counts training time, and MT20's pack took 214 s to build and compile before its clock started,
+# so that its run ended 31 s past the deadline, with its evaluation (64 episodes of each of twenty
+# tasks on 8 threads) unfinished (bench/results/suites-h100x4/README.md)
+suite_reserve=${SWEEP_SUITE_RESERVE:-600}
 
 # is_suite NAME: exit 0 when NAME is a suite of configs/suites (MT20: multi-task PPO on its pack)
 is_suite() { [[ -f configs/suites/$1.yaml ]]; }
@@ -115,7 +121,9 @@ lane() {
     done
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
     mkdir -p "$log"
-    left=$((deadline - $(date +%s) - reserve))
+    local r=$reserve
+    is_suite "$task" && r=$suite_reserve
+    left=$((deadline - $(date +%s) - r))
     ((left > 30)) || { echo "$spec: no time left" >>"$out/lanes.log"; continue; }
     local args
     if [[ -f $dir/config.yaml ]]; then
@@ -177,7 +185,7 @@ start)
     IFS=, read -ra list <<<"${spec#*=}"
     echo "${list[*]}" >>"$out/lanes"
     export -f lane run_dir still_rising own_slots eval_yaml is_suite
-    export out runs steps slots device bidex reserve suite_slots suite_episodes
+    export out runs steps slots device bidex reserve suite_slots suite_episodes suite_reserve
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &
   done
