@@ -122,6 +122,7 @@ std::vector<std::string> metric_columns(const taskpack::Pack& pack, const Algori
                                    "return", "length", "success"};
   if (pack.ngroups() == 1) {
     for (auto& t : pack.task_spec(0).reward_terms) cols.push_back("term_" + t.name);
+    if (pack.curriculum(0)) cols.push_back("curriculum_level");  // the slots' mean level
   } else {
     cols.push_back("scaled_return");
     for (int g = 0; g < pack.ngroups(); ++g) cols.push_back("return_" + pack.label(g));
@@ -503,6 +504,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                                mean_return, with ? len / with : NAN, mean_success};
     if (env.ngroups() == 1) {
       for (double t : per[0].term_sums) row.push_back(ep > 0 ? t / ep : NAN);
+      if (env.curriculum(0))
+        row.push_back(per[0].levels ? per[0].level_sum / per[0].levels : NAN);
     } else {
       row.push_back(with ? scaled / with : NAN);
       for (auto& es : per) row.push_back(es.episodes ? es.return_sum / es.episodes : NAN);

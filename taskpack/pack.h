@@ -94,6 +94,8 @@ class Pack {
   virtual void reset() = 0;
   // Episodes finished since the last call, per entry (unscaled returns).
   virtual std::vector<tasks::EpisodeStats> take_stats() = 0;
+  // Whether entry g's task trains under a curriculum (tasks::Task::curriculum).
+  virtual bool curriculum(int g) const = 0;
   // Timing of the steps since set_profile(true): see each pack for what the fields hold.
   virtual void set_profile(bool on) = 0;
   virtual tasks::StageProfile profile() const = 0;
@@ -151,6 +153,7 @@ class TaskPack : public Pack {
   std::vector<uint8_t> terminated, truncated, success, fault;
 
   std::vector<tasks::EpisodeStats> take_stats() override;
+  bool curriculum(int g) const override { return envs_.at(g)->task().curriculum(); }
   void set_profile(bool on) override;
   // wall: the pack's steps; actions and task: thread-seconds summed over entries
   tasks::StageProfile profile() const override;

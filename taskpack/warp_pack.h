@@ -66,6 +66,7 @@ class WarpPack : public Pack {
   std::vector<float> download(const std::string& name) const;
 
   std::vector<tasks::EpisodeStats> take_stats() override;
+  bool curriculum(int g) const override { return envs_.at(g)->task().curriculum(); }
   // Faults and overflows over all entries' worlds since construction, and what to raise.
   int64_t total_faults() const;
   std::string room_advice() const;

@@ -292,8 +292,17 @@ void TaskEnv::end_step() {
   }
 }
 
+void add_levels(EpisodeStats& st, const SlotState* states, int n) {
+  for (int s = 0; s < n; ++s)
+    if (states[s].params.level_started) {
+      st.level_sum += states[s].params.level;
+      st.levels += 1;
+    }
+}
+
 EpisodeStats TaskEnv::take_stats() {
   EpisodeStats out = stats_;
+  if (task_->curriculum()) add_levels(out, state_.data(), nslot_);
   stats_ = EpisodeStats{};
   stats_.term_sums.assign(nterms_, 0.0);
   return out;

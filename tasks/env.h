@@ -36,7 +36,14 @@ struct EpisodeStats {
   double return_sum = 0;
   double length_sum = 0;
   std::vector<double> term_sums;  // per reward term: sum over episodes of the term's return
+  // A task with a curriculum (Task::curriculum): the sum of the slots' levels when the stats
+  // were taken, over the `levels` slots whose level has started (TaskParams::level_started)
+  double level_sum = 0;
+  int64_t levels = 0;
 };
+
+// Adds the started levels of `n` slot states to `st` (EpisodeStats::level_sum, levels).
+void add_levels(EpisodeStats& st, const SlotState* states, int n);
 
 // Wall time of the stages, summed over steps since set_profile(true).
 struct StageProfile {

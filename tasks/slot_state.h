@@ -22,8 +22,10 @@ struct TaskParams {
   // added to each goal's configured position at every reset (m)
   std::array<std::array<double, 3>, kMaxGoals> goal_shift{};
   // a training curriculum's level in [0, 1] (families that have one, e.g. re_orientation's;
-  // the family moves it from episode to episode); negative: not started
-  double level = -1;
+  // the family moves it from episode to episode), valid once level_started (zero bytes, as the
+  // GPU backend's first state, mean not started)
+  double level = 0;
+  bool level_started = false;
 };
 
 struct SlotState {

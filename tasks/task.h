@@ -46,6 +46,9 @@ class Task {
   const std::string& config_file() const { return config_file_; }
   // Episode length in control steps (the config may change the spec's default).
   virtual int episode_length() const { return spec_->episode_length; }
+  // Whether the config turns on a training curriculum that moves each slot's
+  // TaskParams::level (re_orientation's): EpisodeStats then reports the levels.
+  virtual bool curriculum() const { return false; }
 
   // The scene: hands placed for this task, objects, goal markers, tables.
   virtual sim::SceneBuilder scene(const sim::HandSpec& right_hand,

@@ -281,6 +281,11 @@ EpisodeStats WarpTaskEnv::take_stats() {
     st.length_sum += len[w];
     for (int k = 0; k < arrays_.nterms; ++k) st.term_sums[k] += terms[w * arrays_.nterms + k];
   }
+  if (task_->curriculum()) {  // the levels live in the slot states (once an update)
+    std::vector<SlotState> states(nslot_);
+    backend_->download_bytes("state", states.data(), states.size() * sizeof(SlotState));
+    add_levels(st, states.data(), nslot_);
+  }
   for (const char* name : {"done_return", "done_length", "done_terms", "done_episodes",
                            "done_successes", "done_terminated", "done_truncated",
                            "done_faults"}) {

@@ -36,6 +36,7 @@ class ReOrientation : public BodyTask<manip::ManipTask, ReOrientationBodies> {
   sim::SceneBuilder scene(const sim::HandSpec& right_hand,
                           const sim::PhysicsOptions& physics) const override;
   void bind(const sim::SimModel& model) override;
+  bool curriculum() const override { return p_.curriculum; }
 
  private:
   ReOrientationParams p_;

@@ -86,7 +86,9 @@ BIDEX_HD void re_orientation_reset(const ReOrientationProgram& p, const sim::Res
                                    SlotState& st, SlotRng& rng) {
   if (p.curriculum) {
     double& level = st.params.level;
-    level = level < 0 ? p.curriculum_start : math::max(0.0, level - p.curriculum_down);
+    level = st.params.level_started ? math::max(0.0, level - p.curriculum_down)
+                                    : p.curriculum_start;
+    st.params.level_started = true;
   }
   randomise_hand_joints(p.hands, p.hand_dof_noise, rng, r);
   double noise[3] = {0, 0, 0};

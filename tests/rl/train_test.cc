@@ -307,6 +307,29 @@ TEST_CASE("a loaded policy evaluates: returns, success and lengths of whole epis
   CHECK(e.rc != 0);
 }
 
+TEST_CASE("a run under re_orientation's curriculum logs the slots' mean level", "[rl][train]") {
+  test::TaskTempDir tmp;
+  const std::string yaml =
+      tmp.write("curriculum.yaml", "extends: " + tasks::default_task_config("re_orientation") +
+                                       "\ncurriculum: {enabled: true, start: 0.4, up: 0.02, "
+                                       "down: 0.05}\n");
+  const std::string dir = tmp.file("run");
+  rl::train_new(test::tiny_yaml("re_orientation", {"env.task_config=" + yaml}), dir, test::quiet());
+  const auto levels = metric(dir, "curriculum_level");
+  REQUIRE(levels.size() == 2);
+  for (double v : levels) {
+    CHECK(v >= 0.4 - 0.05 * 16);  // at most one reset a slot-step
+    CHECK(v <= 1);
+  }
+  // the mean of the four slots' levels: 0.4 moved by steps of 0.02 / 4 and 0.05 / 4
+  const double steps = (levels[1] - 0.4) / 0.0025;
+  CHECK(std::abs(steps - std::round(steps)) < 1e-6);
+  // without the curriculum, no such column
+  const std::string plain = tmp.file("plain");
+  rl::train_new(test::tiny_yaml("re_orientation"), plain, test::quiet());
+  CHECK(read_file(plain + "/metrics.csv").find("curriculum_level") == std::string::npos);
+}
+
 TEST_CASE("bidex train, eval and render --run work from the command line", "[rl][train][apps]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");

@@ -819,7 +819,7 @@ TEST_CASE("re_orientation's curriculum: goals turned at most level x pi, the lev
   }
   // off (the default): the level is never started
   auto plain = make_env("re_orientation", 2, 3);
-  CHECK(plain->slot_state(0).params.level == -1);
+  CHECK_FALSE(plain->slot_state(0).params.level_started);
 }
 
 // ---- resets ----------------------------------------------------------------------------------

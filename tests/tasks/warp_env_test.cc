@@ -71,6 +71,40 @@ TEST_CASE("WarpTaskEnv resets like TaskEnv: same streams, same first observation
   }
 }
 
+TEST_CASE("WarpTaskEnv keeps re_orientation's curriculum levels as TaskEnv does", "[warp]") {
+  // the levels live in the slot states on the device: the same goals at a reset, the same
+  // levels in the stats, one reset later both lowered by `down`
+  test::TempDir dir;
+  const std::string file = dir.file("curriculum.yaml");
+  std::ofstream(file) << "extends: " << BIDEX_SOURCE_DIR
+                      << "/tasks/re_orientation/re_orientation.yaml\n"
+                         "curriculum: {enabled: true, start: 0.3, up: 0.02, down: 0.05}\n";
+  TaskEnv cpu(make_task("re_orientation", file), cpu_env(4, 3));
+  WarpTaskEnv gpu(make_task("re_orientation", file), cpu_warp(4, 3));
+  const Slice* goal = gpu.spec().obs.find("goal1.pose");
+  REQUIRE(goal);
+  for (int round = 0; round < 2; ++round) {
+    if (round > 0) {
+      cpu.reset();
+      gpu.reset();
+    }
+    const auto go = gpu.download<float>("obs");
+    const int od = gpu.obs_dim();
+    for (int w = 0; w < 4; ++w)
+      for (int k = 0; k < goal->size; ++k)
+        CHECK(go[w * od + goal->start + k] ==
+              Approx(cpu.obs[w * od + goal->start + k]).margin(1e-5));
+    const EpisodeStats a = cpu.take_stats(), b = gpu.take_stats();
+    CHECK(a.levels == 4);
+    CHECK(b.levels == 4);
+    CHECK(a.level_sum == Approx(4 * (0.3 - 0.05 * round)).epsilon(1e-12));
+    CHECK(b.level_sum == Approx(a.level_sum).epsilon(1e-12));
+  }
+  // no curriculum: no levels
+  TaskEnv plain(make_task("re_orientation", ""), cpu_env(2, 3));
+  CHECK(plain.take_stats().levels == 0);
+}
+
 TEST_CASE("WarpTaskEnv takes per-slot goal shifts like TaskEnv", "[warp]") {
   TaskEnv cpu(make_task("two_catch_underarm", ""), cpu_env(3, 5));
   WarpTaskEnv gpu(make_task("two_catch_underarm", ""), cpu_warp(3, 5));
