@@ -133,6 +133,24 @@ std::vector<std::string> metric_columns(const taskpack::Pack& pack, const Algori
   return cols;
 }
 
+// A resumed task run under a curriculum: the slots' levels live in the environment, not the
+// checkpoint, so each slot restarts from the mean level that metrics.csv logged last, at or
+// before `update` (from each slot's next episode), not from the curriculum's start.
+void restore_levels(taskpack::Pack& env, const std::string& run_dir, int64_t update) {
+  if (env.ngroups() != 1 || !env.curriculum(0)) return;
+  const std::string name = run_dir + "/metrics.csv";
+  std::vector<std::string> cols;
+  std::vector<std::vector<double>> rows;
+  parse_metrics_csv(read_file(name), name, cols, rows);
+  const auto c = std::find(cols.begin(), cols.end(), "curriculum_level") - cols.begin();
+  if (c == static_cast<std::ptrdiff_t>(cols.size())) return;
+  for (auto r = rows.rbegin(); r != rows.rend(); ++r)
+    if ((*r)[0] <= static_cast<double>(update) && std::isfinite((*r)[c])) {
+      env.set_levels(0, (*r)[c]);
+      return;
+    }
+}
+
 std::string checkpoint_path(const std::string& dir, int64_t update) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "/checkpoints/update_%08lld.ckpt", static_cast<long long>(update));
@@ -700,6 +718,7 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
   write_run_json(s, options, true);
   if (options.on_start) options.on_start(s.cfg, run_dir);
   MetricsLog log = MetricsLog::resume(run_dir, metric_columns(*s.env, *s.algo), s.update);
+  restore_levels(*s.env, run_dir, s.update);
   return run_loop(s, log, options);
 }
 

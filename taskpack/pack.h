@@ -94,8 +94,10 @@ class Pack {
   virtual void reset() = 0;
   // Episodes finished since the last call, per entry (unscaled returns).
   virtual std::vector<tasks::EpisodeStats> take_stats() = 0;
-  // Whether entry g's task trains under a curriculum (tasks::Task::curriculum).
+  // Whether entry g's task trains under a curriculum (tasks::Task::curriculum), and its slots'
+  // levels set (tasks::set_levels), from each slot's next reset.
   virtual bool curriculum(int g) const = 0;
+  virtual void set_levels(int g, double level) = 0;
   // Timing of the steps since set_profile(true): see each pack for what the fields hold.
   virtual void set_profile(bool on) = 0;
   virtual tasks::StageProfile profile() const = 0;
@@ -154,6 +156,7 @@ class TaskPack : public Pack {
 
   std::vector<tasks::EpisodeStats> take_stats() override;
   bool curriculum(int g) const override { return envs_.at(g)->task().curriculum(); }
+  void set_levels(int g, double level) override { envs_.at(g)->set_levels(level); }
   void set_profile(bool on) override;
   // wall: the pack's steps; actions and task: thread-seconds summed over entries
   tasks::StageProfile profile() const override;

@@ -67,6 +67,7 @@ class WarpPack : public Pack {
 
   std::vector<tasks::EpisodeStats> take_stats() override;
   bool curriculum(int g) const override { return envs_.at(g)->task().curriculum(); }
+  void set_levels(int g, double level) override { envs_.at(g)->set_levels(level); }
   // Faults and overflows over all entries' worlds since construction, and what to raise.
   int64_t total_faults() const;
   std::string room_advice() const;

@@ -300,6 +300,20 @@ void add_levels(EpisodeStats& st, const SlotState* states, int n) {
     }
 }
 
+void set_levels(const Task& task, SlotState* states, int nslot, double level) {
+  const std::string where = "task " + task.spec().id + ": curriculum level: ";
+  if (!task.curriculum())
+    throw Error(where + "its configuration (" + task.config_file() + ") has no curriculum");
+  if (!(level >= 0 && level <= 1))
+    throw Error(where + "expected a level in [0, 1], got " + std::to_string(level));
+  for (int s = 0; s < nslot; ++s) {
+    states[s].params.level = level;
+    states[s].params.level_started = true;
+  }
+}
+
+void TaskEnv::set_levels(double level) { tasks::set_levels(*task_, state_.data(), nslot_, level); }
+
 EpisodeStats TaskEnv::take_stats() {
   EpisodeStats out = stats_;
   if (task_->curriculum()) add_levels(out, state_.data(), nslot_);

@@ -45,6 +45,11 @@ struct EpisodeStats {
 // Adds the started levels of `n` slot states to `st` (EpisodeStats::level_sum, levels).
 void add_levels(EpisodeStats& st, const SlotState* states, int n);
 
+// Every slot's curriculum level set to `level` (started), from its next reset (a resumed run's
+// levels, rl's trainer). Throws Error naming the task when it has no curriculum or the level is
+// not in [0, 1]; then no state has changed.
+void set_levels(const Task& task, SlotState* states, int nslot, double level);
+
 // Wall time of the stages, summed over steps since set_profile(true).
 struct StageProfile {
   int64_t steps = 0;
@@ -140,6 +145,8 @@ class TaskEnv {
   StageProfile profile() const;
   // Goal shifts of some slots (tasks::set_goal_shifts above), from their next reset.
   void set_goal_shifts(const std::vector<int>& slots, const std::vector<double>& shifts);
+  // Every slot's curriculum level (tasks::set_levels above), from its next reset.
+  void set_levels(double level);
 
   static constexpr float kObsClip = 5.0f;
 

@@ -188,6 +188,14 @@ void WarpTaskEnv::set_goal_shifts(const std::vector<int>& slots,
   backend_->upload_bytes("state", st.data(), st.size() * sizeof(SlotState));
 }
 
+void WarpTaskEnv::set_levels(double level) {
+  synchronize();
+  std::vector<SlotState> st(nslot_);
+  backend_->download_bytes("state", st.data(), st.size() * sizeof(SlotState));
+  tasks::set_levels(*task_, st.data(), nslot_, level);
+  backend_->upload_bytes("state", st.data(), st.size() * sizeof(SlotState));
+}
+
 void WarpTaskEnv::reset() {
   reset_slots(std::vector<uint8_t>(nslot_, 1));
 }

@@ -100,6 +100,8 @@ class WarpTaskEnv {
   // Goal shifts of some worlds (tasks::set_goal_shifts in env.h), from their next reset: the
   // per-world states make one round trip to the host (not per step).
   void set_goal_shifts(const std::vector<int>& slots, const std::vector<double>& shifts);
+  // Every world's curriculum level (tasks::set_levels in env.h), the same way.
+  void set_levels(double level);
 
  private:
   void copy(const std::string& name, void* dst, size_t bytes) const;

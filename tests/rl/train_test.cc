@@ -324,6 +324,27 @@ TEST_CASE("a run under re_orientation's curriculum logs the slots' mean level", 
   // the mean of the four slots' levels: 0.4 moved by steps of 0.02 / 4 and 0.05 / 4
   const double steps = (levels[1] - 0.4) / 0.0025;
   CHECK(std::abs(steps - std::round(steps)) < 1e-6);
+  // a resumed run's slots go on from the level logged last, not from the start: four-step
+  // episodes lower every level by 0.05 a reset, 2 resets a slot an update
+  const std::string quick =
+      tmp.write("quick.yaml", "extends: " + tasks::default_task_config("re_orientation") +
+                                  "\nepisode_length: 4\ncurriculum: {enabled: true, start: 1, "
+                                  "up: 0.02, down: 0.05}\n");
+  auto once = [&](const std::string& run, int stop) {
+    auto o = test::quiet();
+    o.stop_after_updates = stop;
+    return rl::train_new(test::tiny_yaml("re_orientation", {"env.task_config=" + quick}), run, o);
+  };
+  const std::string whole = tmp.file("whole"), parts = tmp.file("parts");
+  once(whole, 0);
+  once(parts, 1);
+  rl::train_resume(parts, test::quiet());
+  const auto a = metric(whole, "curriculum_level"), b = metric(parts, "curriculum_level");
+  REQUIRE(a.size() == 2);
+  REQUIRE(b.size() == 2);
+  CHECK(a[0] == b[0]);
+  CHECK(a[1] < a[0]);
+  CHECK(b[1] < b[0] - 0.05);  // from the logged level: from the start it would be about b[0]
   // without the curriculum, no such column
   const std::string plain = tmp.file("plain");
   rl::train_new(test::tiny_yaml("re_orientation"), plain, test::quiet());

@@ -817,9 +817,20 @@ TEST_CASE("re_orientation's curriculum: goals turned at most level x pi, the lev
     const double* q = env0->batch().data(s)->qpos + o1.qpos_adr + 3;
     for (int k = 0; k < 4; ++k) CHECK(g[3 + k] == Approx(q[k]).margin(1e-12));
   }
-  // off (the default): the level is never started
+  // set from outside (a resumed run): every slot from its next reset; the stats report them
+  env->set_levels(0.7);
+  auto st = env->take_stats();
+  CHECK(st.levels == 64);
+  CHECK(st.level_sum == Approx(64 * 0.7).epsilon(1e-12));
+  env->reset();
+  CHECK(env->slot_state(5).params.level == Approx(0.65).epsilon(1e-12));
+  CHECK_THROWS_WITH(env->set_levels(1.5), Catch::Contains("[0, 1], got 1.5"));
+  CHECK(env->take_stats().level_sum == Approx(64 * 0.65).epsilon(1e-12));  // unchanged
+  // off (the default): the level is never started, and cannot be set
   auto plain = make_env("re_orientation", 2, 3);
   CHECK_FALSE(plain->slot_state(0).params.level_started);
+  CHECK(plain->take_stats().levels == 0);
+  CHECK_THROWS_WITH(plain->set_levels(0.5), Catch::Contains("has no curriculum"));
 }
 
 // ---- resets ----------------------------------------------------------------------------------

@@ -100,6 +100,14 @@ TEST_CASE("WarpTaskEnv keeps re_orientation's curriculum levels as TaskEnv does"
     CHECK(a.level_sum == Approx(4 * (0.3 - 0.05 * round)).epsilon(1e-12));
     CHECK(b.level_sum == Approx(a.level_sum).epsilon(1e-12));
   }
+  // set from outside, as on the CPU
+  cpu.set_levels(0.8);
+  gpu.set_levels(0.8);
+  cpu.reset();
+  gpu.reset();
+  CHECK(gpu.take_stats().level_sum == Approx(4 * 0.75).epsilon(1e-12));
+  CHECK(cpu.take_stats().level_sum == Approx(4 * 0.75).epsilon(1e-12));
+  CHECK_THROWS_WITH(gpu.set_levels(-0.1), Catch::Contains("[0, 1]"));
   // no curriculum: no levels
   TaskEnv plain(make_task("re_orientation", ""), cpu_env(2, 3));
   CHECK(plain.take_stats().levels == 0);
