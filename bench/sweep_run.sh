@@ -17,9 +17,10 @@
 #       minibatches (the task's section of configs/train/ppo.yaml applies; one that sets the
 #       task's slots keeps its slots and minibatches) to $SWEEP_STEPS
 #       slot-steps (default 50M), then the final policy's mean action over 256 episodes on the
-#       CPU path (under the task's own YAML when NAME.yaml turns a curriculum on). Once every lane of its GPU is through its runs, a lane that has time left
-#       resumes, towards 100M, its runs whose return or success still rose over their last 10M
-#       slot-steps, and evaluates them again. Every run stops 240 s before the deadline, SECONDS
+#       CPU path (under the task's own YAML when NAME.yaml turns a curriculum on). Once every
+#       lane of its GPU is through its runs, a lane that has time left resumes, towards 100M,
+#       its runs whose return or success still rose over their last 10M slot-steps, and
+#       evaluates them again. Every run stops 240 s before the deadline, SECONDS
 #       after this call, whatever it has reached, and is evaluated by then.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute

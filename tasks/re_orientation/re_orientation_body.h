@@ -157,8 +157,8 @@ BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
   }
   if (at) {
     if (p.curriculum) st.params.level = math::min(1.0, st.params.level + p.curriculum_up);
-    const double from[4] = {st.goal[at & 1u ? 0 : 1][3], st.goal[at & 1u ? 0 : 1][4],
-                            st.goal[at & 1u ? 0 : 1][5], st.goal[at & 1u ? 0 : 1][6]};
+    const auto& last = st.goal[at & 1u ? 0 : 1];  // a goal just reached
+    const double from[4] = {last[3], last[4], last[5], last[6]};
     re_orientation_new_goals(p, st, rng, at, from);
     re_orientation_place_markers(p, st, w.mocap_pos, w.mocap_quat);
   }
