@@ -11,9 +11,8 @@ import argparse, csv, math, os, sys
 
 import yaml
 
-
-def value(v):
-    return v["value"] if isinstance(v, dict) else v
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from sweep_table import value  # noqa: E402  (a references.yaml value, plain or with its source)
 
 
 def section(refs, name):

@@ -54,8 +54,8 @@ suite_slots=${SWEEP_SUITE_SLOTS:-65536}     # a suite's slots in all (the MT20 p
 suite_episodes=${SWEEP_SUITE_EPISODES:-64}  # a suite's evaluation: episodes per task
 # seconds a suite's run stops before the deadline, for its setup and its evaluation: --time-limit
 # counts training time, and MT20's pack took 214 s to build and compile before its clock started,
-# so that its run ended 31 s past the deadline, with its evaluation (64 episodes of each of twenty
-# tasks on 8 threads) unfinished (bench/results/suites-h100x4/README.md)
+# so that its run ended 211 s after the planned stop, and its evaluation (64 episodes of each of
+# twenty tasks on 8 threads) had not ended by the collection (bench/results/suites-h100x4/README.md)
 suite_reserve=${SWEEP_SUITE_RESERVE:-600}
 
 # is_suite NAME: exit 0 when NAME is a suite of configs/suites (MT20: multi-task PPO on its pack)

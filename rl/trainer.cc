@@ -134,19 +134,14 @@ std::vector<std::string> metric_columns(const taskpack::Pack& pack, const Algori
 }
 
 // A resumed task run under a curriculum: the slots' levels live in the environment, not the
-// checkpoint, so each slot restarts from the mean level that metrics.csv logged last, at or
-// before `update` (from each slot's next episode), not from the curriculum's start.
-void restore_levels(taskpack::Pack& env, const std::string& run_dir, int64_t update) {
+// checkpoint, so each slot restarts from the mean level that the resumed log (its rows up to the
+// checkpoint) logged last, from the slot's next episode, not from the curriculum's start.
+void restore_levels(taskpack::Pack& env, const MetricsLog& log) {
   if (env.ngroups() != 1 || !env.curriculum(0)) return;
-  const std::string name = run_dir + "/metrics.csv";
-  std::vector<std::string> cols;
-  std::vector<std::vector<double>> rows;
-  parse_metrics_csv(read_file(name), name, cols, rows);
-  const auto c = std::find(cols.begin(), cols.end(), "curriculum_level") - cols.begin();
-  if (c == static_cast<std::ptrdiff_t>(cols.size())) return;
-  for (auto r = rows.rbegin(); r != rows.rend(); ++r)
-    if ((*r)[0] <= static_cast<double>(update) && std::isfinite((*r)[c])) {
-      env.set_levels(0, (*r)[c]);
+  const std::vector<double> levels = log.column("curriculum_level");
+  for (auto v = levels.rbegin(); v != levels.rend(); ++v)
+    if (std::isfinite(*v)) {
+      env.set_levels(0, *v);
       return;
     }
 }
@@ -718,7 +713,7 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
   write_run_json(s, options, true);
   if (options.on_start) options.on_start(s.cfg, run_dir);
   MetricsLog log = MetricsLog::resume(run_dir, metric_columns(*s.env, *s.algo), s.update);
-  restore_levels(*s.env, run_dir, s.update);
+  restore_levels(*s.env, log);
   return run_loop(s, log, options);
 }
 

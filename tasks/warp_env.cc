@@ -179,21 +179,28 @@ void WarpTaskEnv::copy(const std::string& name, void* dst, size_t bytes) const {
   backend_->download_bytes(name, dst, bytes);
 }
 
-void WarpTaskEnv::set_goal_shifts(const std::vector<int>& slots,
-                                  const std::vector<double>& shifts) {
-  synchronize();
+std::vector<SlotState> WarpTaskEnv::slot_states() const {
   std::vector<SlotState> st(nslot_);
   backend_->download_bytes("state", st.data(), st.size() * sizeof(SlotState));
-  tasks::set_goal_shifts(spec(), st.data(), nslot_, slots, shifts);
+  return st;
+}
+
+template <class F>
+void WarpTaskEnv::edit_slot_states(F&& edit) {
+  synchronize();
+  std::vector<SlotState> st = slot_states();
+  edit(st.data());  // throws before the upload: then no state has changed
   backend_->upload_bytes("state", st.data(), st.size() * sizeof(SlotState));
 }
 
+void WarpTaskEnv::set_goal_shifts(const std::vector<int>& slots,
+                                  const std::vector<double>& shifts) {
+  edit_slot_states(
+      [&](SlotState* st) { tasks::set_goal_shifts(spec(), st, nslot_, slots, shifts); });
+}
+
 void WarpTaskEnv::set_levels(double level) {
-  synchronize();
-  std::vector<SlotState> st(nslot_);
-  backend_->download_bytes("state", st.data(), st.size() * sizeof(SlotState));
-  tasks::set_levels(*task_, st.data(), nslot_, level);
-  backend_->upload_bytes("state", st.data(), st.size() * sizeof(SlotState));
+  edit_slot_states([&](SlotState* st) { tasks::set_levels(*task_, st, nslot_, level); });
 }
 
 void WarpTaskEnv::reset() {
@@ -290,8 +297,7 @@ EpisodeStats WarpTaskEnv::take_stats() {
     for (int k = 0; k < arrays_.nterms; ++k) st.term_sums[k] += terms[w * arrays_.nterms + k];
   }
   if (task_->curriculum()) {  // the levels live in the slot states (once an update)
-    std::vector<SlotState> states(nslot_);
-    backend_->download_bytes("state", states.data(), states.size() * sizeof(SlotState));
+    const std::vector<SlotState> states = slot_states();
     add_levels(st, states.data(), nslot_);
   }
   for (const char* name : {"done_return", "done_length", "done_terms", "done_episodes",

@@ -104,6 +104,10 @@ class WarpTaskEnv {
   void set_levels(double level);
 
  private:
+  std::vector<SlotState> slot_states() const;  // the worlds' task states, copied to the host
+  // The worlds' task states copied to the host, changed by edit(SlotState*) and copied back.
+  template <class F>
+  void edit_slot_states(F&& edit);
   void copy(const std::string& name, void* dst, size_t bytes) const;
   std::unique_ptr<Task> task_;
   std::unique_ptr<sim::SimModel> model_;

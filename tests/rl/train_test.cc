@@ -301,10 +301,11 @@ TEST_CASE("a loaded policy evaluates: returns, success and lengths of whole epis
   CHECK(e.out.find("under " + other) != std::string::npos);
   CHECK(e.out.find("mean length 55.0") != std::string::npos);
   CHECK(read_file(tmp.file("long.json")).find("\"task_config\": \"" + other) != std::string::npos);
-  // a YAML that is not the task's is a clear error
+  // a YAML that is not the task's is a clear error that names the file
   e = test::bidex_run("eval --run " + dir + " --task-config " +
                       tasks::default_task_config("hand_over") + " --episodes 2 --threads 1");
-  CHECK(e.rc != 0);
+  CHECK(e.rc == 2);
+  CHECK(e.out.find("hand_over.yaml") != std::string::npos);
 }
 
 TEST_CASE("a run under re_orientation's curriculum logs the slots' mean level", "[rl][train]") {
@@ -318,12 +319,12 @@ TEST_CASE("a run under re_orientation's curriculum logs the slots' mean level", 
   const auto levels = metric(dir, "curriculum_level");
   REQUIRE(levels.size() == 2);
   for (double v : levels) {
-    CHECK(v >= 0.4 - 0.05 * 16);  // at most one reset a slot-step
+    CHECK(v >= 0);
     CHECK(v <= 1);
+    // the mean of the four slots' levels: 0.4 moved by steps of 0.02 / 4 and 0.05 / 4
+    const double steps = (v - 0.4) / 0.0025;
+    CHECK(std::abs(steps - std::round(steps)) < 1e-6);
   }
-  // the mean of the four slots' levels: 0.4 moved by steps of 0.02 / 4 and 0.05 / 4
-  const double steps = (levels[1] - 0.4) / 0.0025;
-  CHECK(std::abs(steps - std::round(steps)) < 1e-6);
   // a resumed run's slots go on from the level logged last, not from the start: four-step
   // episodes lower every level by 0.05 a reset, 2 resets a slot an update
   const std::string quick =
