@@ -97,6 +97,14 @@ def rising(rows):
         or (slast is not None and sprev is not None and slast - sprev > 0.02)
 
 
+def eval_row(ev):
+    """the fields of a `bidex eval --json` file the table shows, or None"""
+    return None if ev is None else {
+        "update": ev.get("update"), "episodes": ev["episodes"],
+        "return": ev["mean_return"], "std": ev["std_return"],
+        "success": ev["success_rate"], "length": ev["mean_length"], "faults": ev["faults"]}
+
+
 def summarise(outdir, spec):
     task, *parts = spec.split("/")
     seed = next((p[1:] for p in parts if p.startswith("s")), "0")
@@ -110,6 +118,7 @@ def summarise(outdir, spec):
     # episodes end together, so the last update with a return can be a few updates earlier)
     trained = updates[-1] if updates else None
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
+    ev_default = load(f"{d}/eval-default.json")  # the part e: under the task's own YAML
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)
     reached = [recent(rows, i, comparable) for i in range(len(rows))] if target else []
@@ -135,10 +144,8 @@ def summarise(outdir, spec):
         "reached_at": None if hit is None else {
             "wall_s": float(hit["wall_s"]), "slot_steps": int(float(hit["steps"])),
             "return_no_bonus": reached[first]},
-        "eval": None if ev is None else {
-            "update": ev.get("update"), "episodes": ev["episodes"],
-            "return": ev["mean_return"], "std": ev["std_return"],
-            "success": ev["success_rate"], "length": ev["mean_length"], "faults": ev["faults"]},
+        "eval": eval_row(ev),
+        "eval_default_yaml": eval_row(ev_default),
         "gpu_rows": summary.get("gpu_rows") if summary else None,
     }
     json.dump({k: t[k] for k in ("task", "seed", "original_ppo_final", "reached_original",

@@ -4,14 +4,15 @@
 #   bench/sweep_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
-#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME] (TASK may be
+#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME][/e] (TASK may be
 #       a suite of configs/suites: multi-task PPO on its pack at $SWEEP_SUITE_SLOTS slots, default
 #       65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64, stopping
 #       $SWEEP_SUITE_RESERVE seconds before the deadline, default 600): seed (0 by
 #       default), slot-steps in millions (default $SWEEP_STEPS), a task YAML bench/sweep/NAME.yaml
 #       in place of the task's default (env.task_config) and training overrides
 #       bench/sweep/NAME.overrides (KEY=VALUE lines, each given as -o after the sweep's own; the
-#       files say why). Each lane runs
+#       files say why; e: the final policy also scored under the task's own YAML, as
+#       eval-default.json, for a run trained under another). Each lane runs
 #       in its own process session (it outlives the device call), its runs one after the other
 #       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
 #       minibatches (the task's section of configs/train/ppo.yaml applies; one that sets the
@@ -102,6 +103,13 @@ lane() {
     [[ -z $yaml ]] || args+=(--task-config "$yaml")
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
+    if [[ /$1/ == */e/* ]]; then  # also under the task's own YAML (eval-default.json)
+      local task=${1%%/*}
+      args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
+            --task-config "tasks/$task/$task.yaml" --json "$log/eval-default.json")
+      echo "bidex ${args[*]}" >>"$log/commands.txt"
+      "$bidex" "${args[@]}" >>"$log/eval-default.txt" 2>&1
+    fi
   }
   for spec in "$@"; do
     IFS=/ read -ra part <<<"$spec"
@@ -117,7 +125,8 @@ lane() {
               read -r line <<<"${line%%#*}"  # without its comment and surrounding blanks
               [[ -z $line ]] || cfg+=(-o "$line")
             done <"bench/sweep/${p#o}.overrides" ;;
-        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, cNAME or oNAME)" >>"$out/lanes.log"; continue 2 ;;
+        e) ;;  # evaluate() reads it
+        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, cNAME, oNAME or e)" >>"$out/lanes.log"; continue 2 ;;
       esac
     done
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
