@@ -44,20 +44,21 @@ void read_base_scales(const YamlView& root, double* force_scale, double* torque_
   *torque_scale = read_number(b, "torque_scale", 0, 100, "a scale in [0, 100] (x 1e3/60 N m)");
 }
 
-RewardVariants read_reward_variants(const YamlView& reward) {
+RewardVariants read_reward_variants(const YamlView& reward, const std::string& own) {
   reward.expect_map();
   if (!reward.has("variant")) return {reward, reward, false, "", {}};
-  // which variant the section's own values are: the other one has the map
+  // which variant the section's own values are (`own`, else the one without the map)
   const bool has_paper = reward.has("paper"), has_original = reward.has("original");
   if (has_paper == has_original)
     reward.fail("a map of the other variant's values, 'paper' or 'original' (one), beside "
                 "'variant'",
                 has_paper ? "both" : "neither");
   const std::string other_name = has_paper ? "paper" : "original";
-  const std::string base_name = has_paper ? "original" : "paper";
+  const std::string base_name = !own.empty() ? own : has_paper ? "original" : "paper";
   auto v = reward.child("variant");
   const auto variant = v.as<std::string>();
-  if (variant != "original" && variant != "paper") v.fail("'original' or 'paper'", v.repr());
+  if (variant != base_name && variant != other_name)
+    v.fail("'" + base_name + "' or '" + other_name + "'", v.repr());
   // the map's values over the section's; each must replace one of them
   auto map = reward.child(other_name);
   map.expect_map();

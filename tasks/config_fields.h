@@ -39,13 +39,16 @@ void read_base_scales(const YamlView& root, double* force_scale, double* torque_
 // keys); `use_other` says whether `variant` names the map's variant. A section without
 // `variant` has one formula: `base` and `other` are the section itself, `extra` is empty.
 // Readers read both (so that a mistake in either is an error) and keep the one chosen.
+// `own` names the section's own variant where it is neither of the two (pour_water's `bidex`,
+// a reward of bidex's own): the map may then be `paper` or `original`, and `variant` names
+// `own` or the map.
 struct RewardVariants {
   YamlView base, other;
   bool use_other = false;
   std::string variant;              // "original", "paper", or "" (no variants)
   std::vector<std::string> extra;   // {"variant", the map's name}, or none
 };
-RewardVariants read_reward_variants(const YamlView& reward);
+RewardVariants read_reward_variants(const YamlView& reward, const std::string& own = "");
 
 // Reads a task's parameters under both variants with `read(view, params)` (so that either's
 // mistakes are errors) and keeps the chosen one in `p`, naming it in `p.reward_variant`.

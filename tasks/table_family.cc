@@ -164,7 +164,10 @@ TableParams load_table_params(const std::string& file, TableKind kind) {
   }
   read_base_scales(root, &p.force_scale, &p.torque_scale);
   {
-    const auto rv = read_reward_variants(root.child("reward"));
+    // pour_water's own values are bidex's reward (a lift term, a steeper pour term; its
+    // README, "Reward"), its `paper` map the printed formula with the original's gate
+    const auto rv = read_reward_variants(root.child("reward"),
+                                         kind == TableKind::kPourWater ? "bidex" : "");
     read_chosen_variant(rv, p, [&](const YamlView& r, TableParams& q) {
       read_numbers(r, reward_keys(kind), q, rv.extra);
     });

@@ -36,7 +36,8 @@ struct TableParams {
   // free bases: action +-1 gives force_scale * 1e5 / 60 N and torque_scale * 1e3 / 60 N m
   double force_scale = 0, torque_scale = 0;
   // reward (which are used depends on the kind; README of each task); the variant read
-  // ("original", "paper", or "" where the task has one formula; tasks/README.md)
+  // ("original", "paper", pour_water's "bidex", or "" where the task has one formula;
+  // tasks/README.md)
   std::string reward_variant;
   double offset = 0;                // the constant term
   double gate = 0;                  // fingertip-distance sums below which the goal term pays

@@ -145,7 +145,8 @@ GoalCheck expected_goal(tasks::TaskEnv& env, const std::string& id, int s, doubl
   }
   const auto spout = frame_point(d, body_id(env, "kettle"), {-0.2, 0, 0.13});
   auto [r, l] = points(env, id, d);
-  return {"pour", sr < 0.7 && sl < 0.7 ? 2 * (0.5 - dist(spout, l)) : 0.0};
+  // the default (version 2, bidex's reward): a slope of 10 (README, "Reward")
+  return {"pour", sr < 0.7 && sl < 0.7 ? 10 * (0.5 - dist(spout, l)) : 0.0};
 }
 
 // Every term of slot s against the hand-worked values.
@@ -165,7 +166,11 @@ void check_terms(tasks::TaskEnv& env, const std::string& id, int s) {
   }
   const std::map<std::string, double> offsets = {{"scissors", 2}, {"switch", 2}, {"pour_water", 1}};
   if (offsets.count(id)) CHECK(term(env, terms, "offset") == offsets.at(id));
-  if (id == "pour_water") CHECK(term(env, terms, "lift") == 0);  // off by default (lift_scale 0)
+  if (id == "pour_water") {  // the default: 20 min(rise, 0.05) while the gate is open
+    const double rise = d->qpos[object_of(env, "kettle").qpos_adr + 2] - 0.4;
+    const double lift = sr < 0.7 && sl < 0.7 ? 20 * std::min(std::max(rise, 0.0), 0.05) : 0.0;
+    CHECK(term(env, terms, "lift") == Approx(lift).margin(1e-9));
+  }
   const GoalCheck g = expected_goal(env, id, s, sr, sl);
   CHECK(term(env, terms, g.name) == Approx(g.value).margin(1e-9));
 }
@@ -206,7 +211,7 @@ double best_goal(const std::string& id) {
   if (id == "scissors") return 5 * 0.59;
   if (id == "pen") return 5 * (0.18 + 0.492) - 0.8;
   if (id == "switch") return 50 * 0.045;
-  return 2 * 0.5;
+  return 10 * 0.5;  // pour_water (version 2: pour_scale 10)
 }
 
 const char* goal_term(const std::string& id) {
@@ -432,9 +437,10 @@ TEST_CASE("pen: the paper's one distance a hand by default, the original's sums 
 TEST_CASE("pour_water: the lift term pays for the kettle's rise, capped, while the gate is open",
           "[tasks][table][reward]") {
   // lift = lift_scale min(max(z - 0.4, 0), lift_max), z the kettle's height (its start 0.4 m),
-  // while both fingertip sums are below the gate (0.7 m); off by default (README, "Learning")
+  // while both fingertip sums are below the gate (0.7 m); 20 and 0.05 by default (version 2),
+  // off under reward.variant paper (README, "Reward")
   TaskTempDir dir;
-  const auto file = edited_yaml(dir, "pour_water", {{"lift_scale", "20"}, {"lift_max", "0.05"}});
+  const auto paper = edited_yaml(dir, "pour_water", {{"variant", "paper"}});
   auto raised = [&](tasks::TaskEnv& env, double h, bool hands_at_points) {
     mjData* d = env.batch().data(0);
     d->qpos[object_of(env, "kettle").qpos_adr + 2] = 0.4 + h;
@@ -448,15 +454,50 @@ TEST_CASE("pour_water: the lift term pays for the kettle's rise, capped, while t
     evaluate(env, 0, terms);
     return term(env, terms, "lift");
   };
-  auto env = make_env("pour_water", 1, 1, 1, file);
+  auto env = make_env("pour_water", 1, 1, 1);
   CHECK(dynamic_cast<const tasks::TableTask&>(env->task()).params().lift_scale == 20);
   CHECK(raised(*env, 0.03, true) == Approx(20 * 0.03).epsilon(1e-6));
   CHECK(raised(*env, 0.2, true) == Approx(20 * 0.05).epsilon(1e-9));  // capped at lift_max
   CHECK(raised(*env, 0.0, true) == Approx(0).margin(1e-6));
-  auto shut = make_env("pour_water", 1, 1, 1, file);  // hands at their mounts: the gate shut
+  auto shut = make_env("pour_water", 1, 1, 1);  // hands at their mounts: the gate shut
   CHECK(raised(*shut, 0.03, false) == 0);
-  auto off = make_env("pour_water", 1, 1, 1);  // the default: lift_scale 0
+  auto off = make_env("pour_water", 1, 1, 1, paper);  // the printed formula: no lift term
   CHECK(raised(*off, 0.03, true) == 0);
+}
+
+TEST_CASE("pour_water: bidex's reward by default, the printed formula as reward.variant paper",
+          "[tasks][table][reward]") {
+  // pour = pour_scale (0.5 - d), d the spout tip's distance to the bucket opening, while both
+  // fingertip sums are below 0.7 m: pour_scale 10 by default (version 2), 2 under variant paper
+  // (the printed formula's slope, version 1's default); README, "Reward"
+  TaskTempDir dir;
+  const auto paper = edited_yaml(dir, "pour_water", {{"variant", "paper"}});
+  for (const bool printed : {false, true}) {
+    INFO((printed ? "reward.variant paper" : "default (bidex)"));
+    auto env = make_env("pour_water", 1, 1, 1, printed ? paper : std::string());
+    const auto& tp = dynamic_cast<const tasks::TableTask&>(env->task()).params();
+    CHECK(tp.reward_variant == (printed ? "paper" : "bidex"));
+    CHECK(tp.goal_scale == (printed ? 2 : 10));  // pour_scale
+    CHECK(tp.lift_scale == (printed ? 0 : 20));
+    mjData* d = env->batch().data(0);
+    auto [r, l] = points(*env, "pour_water", d);
+    hand_to(*env, 0, 0, r);  // both hands at their points: the gate open
+    hand_to(*env, 0, 1, l);
+    const auto spout = frame_point(d, body_id(*env, "kettle"), {-0.2, 0, 0.13});
+    const double dd = dist(spout, points(*env, "pour_water", d).second);
+    CHECK(dd == Approx(0.1).margin(0.03));  // the spout starts about 0.1 m from the opening
+    std::vector<double> terms;
+    evaluate(*env, 0, terms);
+    CHECK(term(*env, terms, "pour") == Approx((printed ? 2 : 10) * (0.5 - dd)).margin(1e-9));
+    CHECK(term(*env, terms, "offset") == 1);
+  }
+  // the variants pour_water knows: bidex's (its own values) and paper (the map)
+  const auto bad = edited_yaml(dir, "pour_water", {{"variant", "original"}}, "bad.yaml");
+  const auto e = thrown<ConfigError>([&] { tasks::make_task("pour_water", bad); });
+  CHECK(e.key() == "reward.variant");
+  CHECK(contains(e.expected(), "'bidex' or 'paper'"));
+  CHECK(contains(e.actual(), "original"));
+  CHECK(contains(e.what(), bad));
 }
 
 TEST_CASE("table family success thresholds sit where the README says", "[tasks][table][oracle]") {
