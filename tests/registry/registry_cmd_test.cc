@@ -73,7 +73,7 @@ TEST_CASE("bidex registry list: the paper's tasks, by age with --by age", "[regi
   CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "446", "52", "1.601", "14.1",
                         "builtin"}));
   CHECK(has_row(r.out, {"push_block", "5-6", "easy", "417", "52", "231.8", "602.1", "builtin"}));
-  CHECK(has_row(r.out, {"grasp_and_place", "22-28", "medium", "425", "52", "17.22", "183.6",
+  CHECK(has_row(r.out, {"grasp_and_place", "22-28", "medium", "425", "52", "17.22", "470.3",
                         "builtin"}));
   CHECK(!has_text(r.out, " - "));  // every task has both references
 
@@ -246,7 +246,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     // random scores for four of the seven tasks with a ground truth
     reg.set_reference({"hand_over", "random", 2.0, "test"});            // ground truth 269
     reg.set_reference({"catch_abreast", "random", 3.4, "test"});        // 43.4
-    reg.set_reference({"scissors", "random", 1.835, "test"});           // 570.875
+    reg.set_reference({"scissors", "random", 11.625, "test"});          // 611.625
     reg.set_reference({"two_catch_underarm", "random", 0.1, "test"});   // 14.1
     auto task_run = [&](const std::string& task, double ret) {
       registry::RunRecord r;
@@ -259,7 +259,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     task_run("two_catch_underarm", 14.1);  // 1
     task_run("hand_over", 135.5);          // 0.5
     task_run("catch_abreast", 13.4);       // 0.25
-    task_run("scissors", 428.615);         // 0.75
+    task_run("scissors", 461.625);         // 0.75
     task_run("catch_underarm", 10);        // no random score
     task_run("pen", 5);                    // no random score
     registry::RunRecord s;
@@ -280,12 +280,12 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   // task, age, difficulty, run, return, random, ground truth, normalised (by hand)
   CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "7", "269", "2", "269", "1.000"}));
   CHECK(has_row(r.out, {"catch_abreast", "9-10", "easy", "3", "13.4", "3.4", "43.4", "0.250"}));
-  CHECK(has_row(r.out, {"scissors", "7", "easy", "4", "428.6", "1.835", "570.9", "0.750"}));
+  CHECK(has_row(r.out, {"scissors", "7", "easy", "4", "461.6", "11.62", "611.6", "0.750"}));
   CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "7", "7.1", "0.1", "14.1",
                         "0.500"}));
   CHECK(has_row(r.out, {"catch_underarm", "48", "hard", "7", "3", "-", "17.8", "-"}));
-  CHECK(has_row(r.out, {"pen", "7", "easy", "6", "5", "-", "413.1", "-"}));
-  CHECK(has_row(r.out, {"lift_underarm", "12", "easy", "-", "-", "-", "1322", "-"}));
+  CHECK(has_row(r.out, {"pen", "7", "easy", "6", "5", "-", "421.5", "-"}));
+  CHECK(has_row(r.out, {"lift_underarm", "12", "easy", "-", "-", "-", "1432", "-"}));
   CHECK(has_row(r.out, {"door_open_outward", "13", "easy", "-", "-", "-", "580", "-"}));
   CHECK(has_text(r.out, "left out of the plot (no normalised score): push_block, pen, "
                         "catch_over2underarm"));
@@ -315,7 +315,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   // scripts/setup.sh installs), or a line saying how to get one
   const std::string txt = read_file(dir.file("sub/age_report.txt"));
   CHECK(r.out.rfind(txt, 0) == 0);  // the table and the left-out line, as printed
-  CHECK(has_row(txt, {"scissors", "7", "easy", "4", "428.6", "1.835", "570.9", "0.750"}));
+  CHECK(has_row(txt, {"scissors", "7", "easy", "4", "461.6", "11.62", "611.6", "0.750"}));
   CHECK(has_text(r.out, "table: " + dir.file("sub/age_report.txt")));
   if (run_command("command -v rsvg-convert").rc == 0) {
     CHECK(has_text(r.out, "png: " + dir.file("sub/age_report.png")));

@@ -40,10 +40,10 @@ const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"hand_over", 269.0},         {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
     {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_inward", 467},
     {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
-    {"lift_underarm", 1322.19},   {"scissors", 570.875},         {"bottle_cap", 493.569},
-    {"push_block", 602.088},      {"switch", 452.254},           {"pen", 413.094},
-    {"swing_cup", 1511.80},       {"grasp_and_place", 183.611},  {"block_stack", 777.246},
-    {"re_orientation", 669.694},  {"pour_water", 189.345}};
+    {"lift_underarm", 1432.16},   {"scissors", 611.625},         {"bottle_cap", 493.569},
+    {"push_block", 602.088},      {"switch", 452.254},           {"pen", 421.488},
+    {"swing_cup", 7926.30},       {"grasp_and_place", 470.251},  {"block_stack", 742.893},
+    {"re_orientation", 669.694},  {"pour_water", 635.309}};
 
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
@@ -134,9 +134,9 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
         CHECK(r->source.rfind("bidex PPO on the GPU path, ", 0) == 0);
     }
     CHECK(reg.reference("lift_underarm", "ground_truth")->source.find(
-              "sweep-h100x4/lease3/lift_underarm/eval.json") != std::string::npos);
+              "sweep-h100x4/lease7/lift_underarm-m100/eval.json") != std::string::npos);
     CHECK(reg.reference("scissors", "ground_truth")->source.find(
-              "sweep-h100x4/lease2/scissors/eval.json") != std::string::npos);
+              "sweep-h100x4/lease7/scissors-m100/eval.json") != std::string::npos);
     CHECK(reg.reference("switch", "ground_truth")->source.find(
               "sweep-h100x4/switch/eval.json") != std::string::npos);
     // every one of the twenty paper tasks has a ground truth
@@ -718,7 +718,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   GroundTruthOnly references(dir);  // the random scores are set here
   Registry reg(dir.file("r.sqlite"));
   reg.set_reference({"hand_over", "random", 2.0, "test"});
-  reg.set_reference({"lift_underarm", "random", 322.19, "test"});  // ground truth 1322.19
+  reg.set_reference({"lift_underarm", "random", 432.16, "test"});  // ground truth 1432.16
   auto task_run = [&](const std::string& task, double ret) {
     registry::RunRecord r;
     r.algo = "ppo";
@@ -730,7 +730,7 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
   };
   task_run("hand_over", 269.0);                          // older: replaced by the next
   const int64_t ho = task_run("hand_over", 135.5);       // (135.5 - 2) / 267 = 0.5
-  const int64_t lift = task_run("lift_underarm", 572.19);  // 250 / 1000 = 0.25
+  const int64_t lift = task_run("lift_underarm", 682.16);  // 250 / 1000 = 0.25
   task_run("catch_underarm", 10);                        // no random score: not normalised
   const auto rep = registry::age_report(reg);
   REQUIRE(rep.rows.size() == 20);
