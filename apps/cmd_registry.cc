@@ -353,7 +353,8 @@ void add_registry_command(CLI::App& app) {
     auto* cmd = report->add_subcommand(
         "age", "Each task's latest score in human-age order with its reference and normalised "
                "scores, as a table (printed, and a .txt file) and a plot of normalised score against "
-               "human age (SVG, and PNG with rsvg-convert)");
+               "human age (SVG, and PNG with rsvg-convert); below them, the PPO sweep's slot-steps "
+               "to each task's goal against the same ages (configs/registry/time_to_goal.yaml)");
     add_registry_option(cmd, o->registry);
     cmd->add_option("--suite", o->suite, "Scores of the latest scored run of this suite");
     cmd->add_option("--run", o->run, "Scores of this run (id, see bidex registry scores)");
@@ -386,9 +387,12 @@ void add_registry_command(CLI::App& app) {
         for (auto& l : left_out) list.append(list.empty() ? "" : ", ").append(l);
         table += "left out of the plot (no normalised score): " + list + "\n";
       }
+      // beside it, the PPO sweep's time to each task's goal (configs/registry/time_to_goal.yaml)
+      const auto goals = registry::goal_rows(r);
+      if (!goals.empty()) table += "\n" + registry::goal_table(goals);
       std::fputs(table.c_str(), stdout);
       const std::string out = o->out.empty() ? folder_of(r.path()) + "/age_report.svg" : o->out;
-      write_file_atomic(out, registry::age_svg(rep));
+      write_file_atomic(out, registry::age_svg(rep, goals));
       std::printf("plot (%zu of %zu tasks): %s\n", rep.rows.size() - left_out.size(),
                   rep.rows.size(), out.c_str());
       // beside the plot: the table as text, and the plot as a PNG

@@ -165,6 +165,21 @@ CREATE TABLE datasets (
 CREATE INDEX datasets_task ON datasets(task);
 ALTER TABLE runs ADD COLUMN dataset TEXT NOT NULL DEFAULT '';
 )sql",
+    // 4 -> 5
+    R"sql(
+CREATE TABLE time_to_goal (
+  task TEXT PRIMARY KEY REFERENCES tasks(id),
+  goal TEXT NOT NULL CHECK (goal IN ('original_final', 'success')),
+  target REAL NOT NULL,
+  reached_by TEXT NOT NULL CHECK (reached_by IN ('training', 'evaluation', 'not_reached')),
+  slot_steps REAL,
+  wall_s REAL,
+  trained REAL NOT NULL,
+  run TEXT NOT NULL DEFAULT '',
+  code_version TEXT NOT NULL DEFAULT '',
+  source TEXT NOT NULL DEFAULT ''
+);
+)sql",
 };
 constexpr int kVersion = static_cast<int>(sizeof kMigrations / sizeof *kMigrations);
 
@@ -355,6 +370,51 @@ void load_references(sqlite3* db, const std::string& path) {
   }
 }
 
+// The PPO sweep's time to each task's goal, configs/registry/time_to_goal.yaml (made by
+// bench/sweep_time_to_goal.py: {source, success_goal, values: {task: {goal, target, trained, run,
+// commit, by, slot_steps, wall_s}}}). The file owns the table: its rows replace all others. A
+// missing file leaves the table as it is.
+void load_time_to_goal(sqlite3* db, const std::string& path) {
+  const std::string file = time_to_goal_path();
+  if (::access(file.c_str(), F_OK) != 0) return;
+  const YamlView root = YamlView::load_file(file);
+  if (root.node().IsNull()) return;
+  root.allow_keys({"source", "success_goal", "values"});
+  const std::string source = root.req<std::string>("source");
+  sql::exec(db, path, "DELETE FROM time_to_goal");
+  Stmt put(db, path,
+           "INSERT INTO time_to_goal (task, goal, target, reached_by, slot_steps, wall_s, "
+           "trained, run, code_version, source) VALUES (?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)");
+  const auto values = root.child("values");
+  for (auto& task : values.keys()) {
+    const YamlView v = values.child(task);
+    if (!task_exists(db, path, task))
+      v.fail("a registered task id", sql::cat("unknown task ", in_quotes(task)));
+    v.allow_keys({"goal", "target", "trained", "run", "commit", "by", "slot_steps", "wall_s"});
+    const auto goal = v.req<std::string>("goal");
+    if (goal != "original_final" && goal != "success")
+      v.child("goal").fail("'original_final' or 'success'", goal);
+    const auto by = v.req<std::string>("by");
+    if (by != "training" && by != "evaluation" && by != "not_reached")
+      v.child("by").fail("'training', 'evaluation' or 'not_reached'", by);
+    // slot_steps and wall_s: numbers, or null where the goal was not reached
+    auto maybe_number = [&](const char* key) -> std::optional<double> {
+      const YamlView c = v.child(key);
+      if (c.node().IsNull()) {
+        if (by != "not_reached") c.fail("a number (the goal was reached)", "null");
+        return std::nullopt;
+      }
+      return c.as<double>();
+    };
+    put.bind(1, task).bind(2, goal).bind(3, v.req<double>("target")).bind(4, by);
+    put.bind(5, maybe_number("slot_steps")).bind(6, maybe_number("wall_s"));
+    put.bind(7, v.req<double>("trained")).bind(8, v.req<std::string>("run"));
+    put.bind(9, v.req<std::string>("commit")).bind(10, source);
+    put.run();
+    put.reset();
+  }
+}
+
 TaskRecord read_task(const Stmt& st) {
   TaskRecord t;
   t.id = st.text(0);
@@ -484,6 +544,11 @@ std::string references_path() {
   return sim::data_dir() + "/configs/registry/references.yaml";
 }
 
+std::string time_to_goal_path() {
+  if (const char* e = std::getenv("BIDEX_TIME_TO_GOAL"); e && *e) return e;
+  return sim::data_dir() + "/configs/registry/time_to_goal.yaml";
+}
+
 std::string default_path() {
   if (const char* env = std::getenv("BIDEX_REGISTRY"); env && *env) return env;
   return "runs/registry.sqlite";
@@ -567,6 +632,7 @@ Registry::Registry(const std::string& path) : path_(path) {
       sql::exec(db_, path_, sql::cat("PRAGMA user_version = ", std::to_string(kVersion)));
     for (auto& e : tasks::task_registry()) upsert_task(db_, path_, builtin_record(e.spec()));
     load_references(db_, path_);
+    load_time_to_goal(db_, path_);
     txn.commit();
     sync_suites();
   } catch (...) {
@@ -903,6 +969,17 @@ std::vector<Reference> Registry::references() const {
   Stmt st(db_, path_,
           "SELECT task, kind, value, source FROM reference_scores ORDER BY task, kind");
   while (st.step()) out.push_back({st.text(0), st.text(1), st.dbl(2), st.text(3)});
+  return out;
+}
+
+std::vector<TimeToGoal> Registry::time_to_goal() const {
+  std::vector<TimeToGoal> out;
+  Stmt st(db_, path_,
+          "SELECT task, goal, target, reached_by, slot_steps, wall_s, trained, run, code_version, "
+          "source FROM time_to_goal ORDER BY task");
+  while (st.step())
+    out.push_back({st.text(0), st.text(1), st.dbl(2), st.text(3), st.opt(4), st.opt(5),
+                   st.dbl(6), st.text(7), st.text(8), st.text(9)});
   return out;
 }
 

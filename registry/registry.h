@@ -23,6 +23,9 @@ std::string migration_sql(int to_version);
 // The reference scores loaded on open: $BIDEX_REFERENCES when set, else
 // configs/registry/references.yaml under sim::data_dir().
 std::string references_path();
+// The sweep's time to each task's goal, loaded on open: $BIDEX_TIME_TO_GOAL when set, else
+// configs/registry/time_to_goal.yaml under sim::data_dir(); a missing file is skipped.
+std::string time_to_goal_path();
 
 // --registry PATH, else $BIDEX_REGISTRY, else runs/registry.sqlite (relative to the working
 // directory, beside the default run folders).
@@ -114,6 +117,21 @@ struct Evaluation {
   std::vector<AdaptScore> scores;
 };
 
+// A task's time to its goal in the PPO sweep (configs/registry/time_to_goal.yaml, made by
+// bench/sweep_time_to_goal.py): goal "original_final" (training return at or above the
+// original's published PPO final, `target`) or "success" (training success at or above
+// `target`); reached_by "training" (the first update that met it), "evaluation" (the final mean
+// action met it, training did not: an upper bound at the last update) or "not_reached" (no
+// slot_steps; `trained` is a lower bound).
+struct TimeToGoal {
+  std::string task, goal;
+  double target = 0;
+  std::string reached_by;
+  std::optional<double> slot_steps, wall_s;
+  double trained = 0;                 // slot-steps the run trained
+  std::string run, code_version, source;
+};
+
 struct Reference {
   std::string task;
   std::string kind;                   // random | ground_truth
@@ -175,6 +193,8 @@ class Registry {
   void set_reference(const Reference& r);  // insert or replace (task, kind)
   std::vector<Reference> references() const;    // by task, then kind
   std::optional<Reference> reference(const std::string& task, const std::string& kind) const;
+  // The PPO sweep's time to each task's goal, by task (loaded on open).
+  std::vector<TimeToGoal> time_to_goal() const;
   // (return - random) / (ground truth - random); empty when a reference is missing.
   std::optional<double> normalised(const std::string& task, double mean_return) const;
   // Each score's normalised return before and after adaptation, and their means.

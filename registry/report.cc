@@ -201,7 +201,48 @@ std::string age_table(const AgeReport& report) {
   return s;
 }
 
-std::string age_svg(const AgeReport& report) {
+std::vector<GoalRow> goal_rows(const Registry& reg) {
+  std::map<std::string, TimeToGoal> by_task;
+  for (auto& g : reg.time_to_goal()) by_task[g.task] = g;
+  std::vector<GoalRow> rows;
+  for (auto& t : reg.tasks(true)) {  // by age
+    const auto g = by_task.find(t.id);
+    if (g == by_task.end()) continue;
+    rows.push_back({t.id, t.age_text, t.age_min, t.age_max, g->second});
+  }
+  return rows;
+}
+
+std::string goal_table(const std::vector<GoalRow>& rows) {
+  if (rows.empty()) return "";
+  size_t w = 4;
+  for (auto& r : rows) w = std::max(w, r.task.size());
+  std::string s = sql::cat(
+      "the PPO sweep's time to each task's goal (", rows[0].goal.source,
+      "): original_final = the training return at or above the original's published final, "
+      "success = training success at or above the target; by training: the first update that "
+      "met it, evaluation: only the final mean action met it (at most this), not_reached: not "
+      "met in the slot-steps trained\n");
+  const char* const f = "%-7s %-15s %8s  %11s  %8s  %-12s %9s\n";
+  char head[256];
+  std::snprintf(head, sizeof head, f, "age", "goal", "target", "slot-steps", "wall_s", "by",
+                "trained");
+  s.append(pad("task", w + 2)).append(head);
+  for (auto& r : rows) {
+    const auto& g = r.goal;
+    const std::optional<double> m =
+        g.slot_steps ? std::optional<double>(*g.slot_steps / 1e6) : std::nullopt;
+    char buf[256];
+    std::snprintf(buf, sizeof buf, f, r.age_text.c_str(), g.goal.c_str(),
+                  num(g.target).c_str(), (m ? num(m, "%.1fM") : std::string("-")).c_str(),
+                  num(g.wall_s, "%.0f").c_str(), g.reached_by.c_str(),
+                  num(g.trained / 1e6, "%.1fM").c_str());
+    s.append(pad(r.task, w + 2)).append(buf);
+  }
+  return s;
+}
+
+std::string age_svg(const AgeReport& report, const std::vector<GoalRow>& goals) {
   plot::Series pts;
   pts.points = true;
   for (auto& r : report.rows)
@@ -238,7 +279,31 @@ std::string age_svg(const AgeReport& report) {
       note.append(i ? ", " : "").append(left_out[i]);
     p.note = note;
   }
-  return plot::svg({p}, 900, 480);
+  if (goals.empty()) return plot::svg({p}, 900, 480);
+  // the sweep's slot-steps to each goal (millions), one series per kind of result
+  plot::Panel g;
+  g.title = "PPO sweep: slot-steps to each task's goal against human age";
+  g.xlabel = p.xlabel;
+  g.ylabel = "slot-steps to the goal (millions)";
+  g.xlog = true;
+  g.xpad = 0.06;
+  const std::pair<const char*, const char*> kinds[] = {
+      {"training", "met in training (first update)"},
+      {"evaluation", "met by the final mean action only (at most)"},
+      {"not_reached", "not met (at least: the slot-steps trained)"}};
+  for (auto& [by, name] : kinds) {
+    plot::Series pts;
+    pts.points = true;
+    pts.name = name;
+    for (auto& r : goals)
+      if (r.goal.reached_by == by) {
+        pts.x.push_back(r.age_months());
+        pts.y.push_back((r.goal.slot_steps ? *r.goal.slot_steps : r.goal.trained) / 1e6);
+        pts.labels.push_back(r.task);
+      }
+    if (!pts.x.empty()) g.series.push_back(std::move(pts));
+  }
+  return plot::svg({p, g}, 900, 480);
 }
 
 }  // namespace bidex::registry

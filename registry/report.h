@@ -51,8 +51,22 @@ std::string adaptation_text(const Evaluation& e);
 std::string age_table(const AgeReport& report);
 // The ids of the rows without a normalised score (left out of the plot).
 std::vector<std::string> unplotted(const AgeReport& report);
+// The PPO sweep's time to each task's goal (Registry::time_to_goal) beside the task's human age:
+// the registered tasks that have one, in age order.
+struct GoalRow {
+  std::string task, age_text;
+  int age_min = 0, age_max = 0;       // months
+  TimeToGoal goal;
+  double age_months() const { return 0.5 * (age_min + age_max); }
+};
+std::vector<GoalRow> goal_rows(const Registry& reg);
+// Those rows as a text table (empty when there are none).
+std::string goal_table(const std::vector<GoalRow>& rows);
+
 // Normalised score against human age in months (log scale), one labelled point per row with a
-// normalised score, in age order.
-std::string age_svg(const AgeReport& report);
+// normalised score, in age order; with goal rows, a second panel below: the sweep's slot-steps
+// to each task's goal against the same ages (met in training, met by the final mean action
+// only: an upper bound, not met: a lower bound, each its own series).
+std::string age_svg(const AgeReport& report, const std::vector<GoalRow>& goals = {});
 
 }  // namespace bidex::registry

@@ -290,9 +290,27 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   CHECK(has_text(r.out, "left out of the plot (no normalised score): push_block, pen, "
                         "catch_over2underarm"));
   CHECK(has_text(r.out, "plot (4 of 20 tasks)"));
+  // the sweep's time to each goal, below the scores: task, age, goal, target, slot-steps, wall
+  // seconds, how it was met, slot-steps trained (configs/registry/time_to_goal.yaml)
+  CHECK(has_row(r.out, {"task", "age", "goal", "target", "slot-steps", "wall_s", "by", "trained"}));
+  CHECK(has_row(r.out, {"catch_abreast", "9-10", "original_final", "43.4", "22.8M", "535",
+                        "training", "50.1M"}));
+  CHECK(has_row(r.out, {"re_orientation", "18", "success", "0.8", "-", "-", "not_reached",
+                        "50.1M"}));
   const std::string svg_file = dir.file("sub/age_report.svg");  // beside the registry
   REQUIRE(file_exists(svg_file));
-  const std::string svg = read_file(svg_file);
+  const std::string whole = read_file(svg_file);
+  // two panels: the scores, then the PPO sweep's slot-steps to each goal (one point per task of
+  // configs/registry/time_to_goal.yaml)
+  const size_t second = whole.find("PPO sweep: slot-steps to each task");
+  REQUIRE(second != std::string::npos);
+  const std::string svg = whole.substr(0, second);
+  size_t goal_points = 0;
+  for (size_t p = whole.find("<circle cx=\"", second); p != std::string::npos;
+       p = whole.find("<circle cx=\"", p + 1))
+    ++goal_points;
+  CHECK(goal_points == 20);
+  CHECK(has_text(whole, "not met (at least: the slot-steps trained)"));
   // one point per task with both references and a score, labelled, in age order, x increasing
   std::vector<std::string> labels;
   std::vector<double> xs;
@@ -339,7 +357,8 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   CHECK(has_text(r.out, "scores of suite MT4, its latest scored run 7 (mtppo)"));
   CHECK(has_text(r.out, "plot (2 of 3 tasks)"));
   check_order(r.out, {"hand_over", "catch_underarm", "two_catch_underarm"});
-  CHECK_FALSE(has_text(r.out, "\npen "));
+  // (the sweep's goal table below the scores lists every task)
+  CHECK_FALSE(has_text(r.out.substr(0, r.out.find("the PPO sweep's time")), "\npen "));
   REQUIRE(file_exists(out));
   // the same run by id
   r = reg_run("report age --run " + std::to_string(suite_run) + " --out " + q(out), path);

@@ -2,11 +2,13 @@
 // their sources, the reference scores), migrating version-1 and version-2 files, refusing newer
 // and non-SQLite files, runs and scores, meta-RL evaluations, normalised scores, the age report,
 // two processes writing at once.
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
 #include <set>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <sys/wait.h>
@@ -181,8 +183,8 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   }
   // read back without bidex
   RawDb raw(path);
-  CHECK(registry::schema_version() == 4);
-  CHECK(raw.value("PRAGMA user_version") == "4");
+  CHECK(registry::schema_version() == 5);
+  CHECK(raw.value("PRAGMA user_version") == "5");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
   CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
@@ -212,6 +214,84 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   CHECK_THROWS_AS(reg.set_reference({"pen", "expert", 1, "x"}), Error);
   CHECK_THROWS_AS(reg.set_reference({"pen", "random", NAN, "x"}), Error);
   CHECK_THROWS_AS(reg.set_reference({"pen", "random", 1, ""}), Error);
+}
+
+TEST_CASE("the sweep's time to each task's goal: the shipped file gives all twenty, its goals "
+          "agree with the ground truths", "[registry]") {
+  RegTempDir dir;
+  Registry reg(dir.file("r.sqlite"));
+  const auto rows = reg.time_to_goal();
+  std::vector<std::string> tasks;
+  for (auto& r : rows) tasks.push_back(r.task);
+  std::vector<std::string> builtin;
+  for (auto& t : reg.tasks(false)) builtin.push_back(t.id);
+  std::sort(builtin.begin(), builtin.end());
+  CHECK(tasks == builtin);  // by task, one row each
+  int original = 0;
+  for (auto& r : rows) {
+    INFO(r.task);
+    if (r.goal == "original_final") {
+      // the goal is the ground truth where that is the original's published final
+      ++original;
+      CHECK(r.target == Approx(reg.reference(r.task, "ground_truth")->value));
+      CHECK(reg.reference(r.task, "ground_truth")->source == kOriginal);
+    } else {
+      CHECK(r.goal == "success");
+      CHECK(r.target == 0.8);
+      CHECK(reg.reference(r.task, "ground_truth")->source != kOriginal);
+    }
+    if (r.reached_by == "not_reached") {
+      CHECK_FALSE(r.slot_steps);
+    } else {
+      REQUIRE(r.slot_steps);
+      CHECK(*r.slot_steps > 0);
+      CHECK(*r.slot_steps <= r.trained);
+      CHECK(*r.wall_s > 0);
+    }
+    CHECK_THAT(r.run, Catch::StartsWith("bench/results/sweep-h100x4/"));
+    CHECK_FALSE(r.source.empty());
+  }
+  CHECK(original == 8);  // the nine published curves but hand_over's, whose ground truth is bidex's
+  // re_orientation has not met its goal
+  CHECK(rows[static_cast<size_t>(std::find(tasks.begin(), tasks.end(), "re_orientation") -
+                                 tasks.begin())].reached_by == "not_reached");
+}
+
+TEST_CASE("a bad time-to-goal file is an error naming the file, the key and the value; the "
+          "registry keeps what it had", "[registry]") {
+  RegTempDir dir;
+  const std::string path = dir.file("r.sqlite"), file = dir.file("ttg.yaml");
+  const std::string row =
+      "    pen: {goal: success, target: 0.8, trained: 5.0e7, run: r, commit: c, by: training, "
+      "slot_steps: 1.0e7, wall_s: 300}\n";
+  write_file_atomic(file, "source: \"test\"\nsuccess_goal: 0.8\nvalues:\n" + row);
+  ::setenv("BIDEX_TIME_TO_GOAL", file.c_str(), 1);
+  {
+    Registry reg(path);
+    REQUIRE(reg.time_to_goal().size() == 1);  // the file owns the table: one row
+    CHECK(reg.time_to_goal()[0].slot_steps == 1.0e7);
+    CHECK(reg.time_to_goal()[0].source == "test");
+  }
+  const std::vector<std::tuple<std::string, std::string, std::string>> bad = {
+      {"    penn: {goal: success}\n", "values.penn", "unknown task 'penn'"},
+      {"    pen: {goal: fast, target: 0.8, trained: 1, run: r, commit: c, by: training, "
+       "slot_steps: 1, wall_s: 1}\n", "values.pen.goal", "fast"},
+      {"    pen: {goal: success, target: 0.8, trained: 1, run: r, commit: c, by: training, "
+       "slot_steps: null, wall_s: 1}\n", "values.pen.slot_steps", "null"},
+      {"    pen: {goal: success, target: 0.8, trained: 1, run: r, commit: c, by: soon, "
+       "slot_steps: 1, wall_s: 1}\n", "values.pen.by", "soon"},
+  };
+  for (auto& [text, key, actual] : bad) {
+    INFO(text);
+    write_file_atomic(file, "source: \"test\"\nsuccess_goal: 0.8\nvalues:\n" + text);
+    const std::string msg = error_of([&] { Registry reg(path); });
+    CHECK_THAT(msg, Catch::Contains(file));
+    CHECK_THAT(msg, Catch::Contains(key));
+    CHECK_THAT(msg, Catch::Contains(actual));
+  }
+  ::unsetenv("BIDEX_TIME_TO_GOAL");
+  Registry reg(path);  // the failed opens wrote nothing; the shipped file replaces the test's
+  CHECK(reg.time_to_goal().size() == 20);
 }
 
 namespace {
@@ -551,7 +631,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (269.0 - 1.5)));
   }
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "4");
+  CHECK(raw.value("PRAGMA user_version") == "5");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
   for (const char* table : {"task_sources", "suites", "suite_members", "run_scores", "evaluations",
                             "evaluation_scores"}) {
@@ -574,8 +654,8 @@ TEST_CASE("the migration steps run in order and every one is needed", "[registry
   RawDb a(dir.file("new.sqlite")), b(dir.file("by_hand.sqlite"));
   const std::string q = "SELECT sql FROM sqlite_master WHERE sql IS NOT NULL ORDER BY name";
   CHECK(a.column(q) == b.column(q));
-  // 10 tables, sqlite_sequence (of AUTOINCREMENT) and 5 indices
-  CHECK(a.column(q).size() == 16);
+  // 11 tables, sqlite_sequence (of AUTOINCREMENT) and 5 indices
+  CHECK(a.column(q).size() == 17);
 }
 
 TEST_CASE("a registry of a newer schema version is refused and left untouched", "[registry]") {
@@ -583,16 +663,16 @@ TEST_CASE("a registry of a newer schema version is refused and left untouched", 
   const std::string path = dir.file("future.sqlite");
   {
     RawDb raw(path);
-    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 5");
+    raw.exec("CREATE TABLE tasks (id TEXT PRIMARY KEY, hologram BLOB); PRAGMA user_version = 6");
   }
   const std::string before = read_file(path);
   const std::string msg = error_of([&] { Registry reg(path); });
   CHECK_THAT(msg, Catch::Contains(path));
-  CHECK_THAT(msg, Catch::Contains("schema version 5 is newer"));
-  CHECK_THAT(msg, Catch::Contains("(4)"));
+  CHECK_THAT(msg, Catch::Contains("schema version 6 is newer"));
+  CHECK_THAT(msg, Catch::Contains("(5)"));
   CHECK(read_file(path) == before);
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "5");
+  CHECK(raw.value("PRAGMA user_version") == "6");
 }
 
 TEST_CASE("a file that is not an SQLite registry is refused, naming it", "[registry]") {
@@ -968,7 +1048,7 @@ TEST_CASE("a version-2 file with runs is migrated to version 3: runs kept, evalu
     CHECK(reg.begin_run(r) == 3);
   }
   RawDb raw(path);
-  CHECK(raw.value("PRAGMA user_version") == "4");
+  CHECK(raw.value("PRAGMA user_version") == "5");
   for (const char* table : {"evaluations", "evaluation_scores"}) {
     INFO(table);
     CHECK(raw.value(std::string("SELECT count(*) FROM sqlite_master WHERE type = 'table' AND "
