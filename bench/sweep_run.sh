@@ -35,6 +35,14 @@
 #       (bench/sweep_table.py makes the table and the grid figure from it)
 #   bench/sweep_run.sh pack OUTDIR DEST
 #       OUTDIR as DEST/sweep.tgz, without the training logs, and those logs as DEST/logs.tgz
+#   bench/sweep_run.sh keep OUTDIR RUN DEST [FIRST [COUNT]]
+#       a run folder to carry into a later lease (run folders do not outlive one; MT20's
+#       checkpoint is 86 MB): the folder with its newest checkpoint only, as RUN.tar.partNN of
+#       15 MiB in DEST, parts FIRST.. (default 0), COUNT of them (default all; a device call
+#       brings back at most 64 MiB: four parts)
+#   bench/sweep_run.sh bring OUTDIR RUN PARTS
+#       the parts of `keep` (in PARTS, all of them) joined back into RUN's run folder, which a
+#       later `start` of RUN resumes
 # Run folders stay on the machine under $SWEEP_RUNS (default /tmp/bidex-sweep). BIDEX_COMMIT
 # names the commit in the results; BIDEX_GPU_BUILD is the build folder (default build-gpu).
 set -uo pipefail
@@ -246,8 +254,39 @@ collect)
   python3 bench/sweep_collect.py "$out" "$machine" \
     "${BIDEX_COMMIT:-unknown}" $(cat "$out/lanes")
   ;;
+keep)
+  spec=${1:?RUN}; dest=$(realpath -m "${2:?DEST}"); first=${3:-0}; count=${4:-1000}
+  dir=$(run_dir "$spec"); name=${spec//\//-}
+  [[ -f $dir/config.yaml ]] || { echo "keep: no run folder $dir" >&2; exit 1; }
+  newest=$(ls "$dir"/checkpoints/*.ckpt 2>/dev/null | sort | tail -n 1)
+  [[ -n $newest ]] || { echo "keep: $dir has no checkpoint" >&2; exit 1; }
+  work=$runs/keep-$name
+  if [[ ! -f $work/done ]]; then  # split once; later calls take further parts from it
+    rm -rf "$work" && mkdir -p "$work"
+    (cd "$(dirname "$dir")" && b=$(basename "$dir") &&
+       { find "$b" -path "$b/checkpoints" -prune -o -type f -print
+         echo "$b/checkpoints/$(basename "$newest")"; } | tar -cf - -T -) |
+      split -b 15M -d - "$work/$name.tar.part"
+    (cd "$work" && sha256sum "$name".tar.part* >"$name.sha256") && touch "$work/done"
+  fi
+  mkdir -p "$dest"
+  ls "$work/$name".tar.part* | tail -n +$((first + 1)) | head -n "$count" | xargs -r cp -t "$dest"
+  cp "$work/$name.sha256" "$dest/"
+  ls -l "$dest"
+  echo "keep: $(ls "$work/$name".tar.part* | wc -l) parts in all of $spec ($(basename "$newest"))"
+  ;;
+bring)
+  spec=${1:?RUN}; parts=$(realpath -m "${2:?PARTS}")
+  dir=$(run_dir "$spec"); name=${spec//\//-}
+  (cd "$parts" && sha256sum -c --quiet "$name.sha256") ||
+    { echo "bring: the parts in $parts do not match $name.sha256" >&2; exit 1; }
+  [[ ! -e $dir ]] || { echo "bring: $dir exists; not replaced" >&2; exit 1; }
+  mkdir -p "$(dirname "$dir")"
+  cat "$parts/$name".tar.part* | tar -C "$(dirname "$dir")" -xf -
+  ls "$dir" "$dir/checkpoints"
+  ;;
 *)
-  echo "unknown stage $stage (build, start, wait, stop, collect or pack)" >&2
+  echo "unknown stage $stage (build, start, wait, stop, collect, pack, keep or bring)" >&2
   exit 2
   ;;
 esac
