@@ -5,8 +5,8 @@
 namespace bidex::metarl {
 
 namespace {
-// input_norm and task_reward_norm, optional: runs made before they existed have neither, and
-// their checkpoints hold neither
+// input_norm and task_reward_norm (and MAML's and ProMP's learn_inner_lr), optional: runs made
+// before they existed have none, and their checkpoints hold none
 void read_scale_options(const YamlView& p, bool& input_norm, bool& task_reward_norm) {
   if (auto v = p.maybe("input_norm")) input_norm = v->as<bool>();
   if (auto v = p.maybe("task_reward_norm")) task_reward_norm = v->as<bool>();
@@ -18,7 +18,7 @@ GradientMetaConfig read_gradient_meta(const YamlView& p, bool promp) {
                                    "inner_lr", "first_order", "epochs", "lr", "clip", "gamma",
                                    "lambda", "max_grad_norm"};
   if (promp) keys.insert(keys.end(), {"init_kl_coef", "target_kl"});
-  keys.insert(keys.end(), {"input_norm", "task_reward_norm"});
+  keys.insert(keys.end(), {"input_norm", "task_reward_norm", "learn_inner_lr"});
   p.allow_keys(keys);
   GradientMetaConfig c;
   c.hidden = rl::read_widths(p.child("hidden"));
@@ -41,6 +41,7 @@ GradientMetaConfig read_gradient_meta(const YamlView& p, bool promp) {
     c.init_kl_coef = 0;
   }
   read_scale_options(p, c.input_norm, c.task_reward_norm);
+  if (auto v = p.maybe("learn_inner_lr")) c.learn_inner_lr = v->as<bool>();
   return c;
 }
 

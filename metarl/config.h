@@ -36,6 +36,12 @@ struct GradientMetaConfig {
   // advantages and the critic's targets (task_scale.h); at evaluation, by the std of the
   // adaptation rows' own returns.
   bool task_reward_norm = false;
+  // Meta-SGD (maml.h, StepSize): the inner step size is one tensor per parameter, each element
+  // starting at inner_lr, learned by the outer loss with the meta-policy (kept in checkpoints).
+  // Learned as alpha = inner_lr exp(rho): positive, and the outer Adam's steps (lr) change it by
+  // a fraction of itself (Meta-SGD learned alpha itself, whose steps of lr = 3e-4 would be as
+  // large as ProMP's inner_lr of 3e-4).
+  bool learn_inner_lr = false;
 };
 
 GradientMetaConfig read_gradient_meta(const YamlView& section, bool promp);

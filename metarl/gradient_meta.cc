@@ -6,8 +6,8 @@
 // clipped surrogate of the adapted policy on its rollouts (ProMP adds its KL penalty on the
 // pre-adaptation rows). A critic, fitted to both phases' returns, gives GAE advantages.
 // Episodes run on across the phase boundary; time-limited ones are bootstrapped. Optionally
-// (config.h) both networks read normalised observations and each task's rewards are scaled by
-// its return std (task_scale.h).
+// (config.h) both networks read normalised observations, each task's rewards are scaled by
+// its return std (task_scale.h), and the inner step sizes are learned per parameter (Meta-SGD).
 #include <cmath>
 
 #include "metarl/algorithms.h"
@@ -93,6 +93,13 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     }
     std::vector<torch::Tensor> all = params_->parameters();
     for (auto& p : critic_->parameters()) all.push_back(p);
+    if (c.learn_inner_lr) {  // Meta-SGD: a step size per element, inner_lr to start with
+      std::vector<torch::Tensor> init;
+      for (auto& p : theta()) init.push_back(torch::zeros_like(p));  // log(alpha / inner_lr)
+      alphas_ = Params(init);
+      alphas_->to(device);
+      for (auto& p : alphas_->parameters()) all.push_back(p);
+    }
     opt_ = std::make_unique<torch::optim::Adam>(all, torch::optim::AdamOptions(c.lr));
     eta_ = torch::full({1}, c.init_kl_coef, torch::kFloat64);
     const auto f = torch::TensorOptions().dtype(torch::kFloat32).device(device);
@@ -183,6 +190,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
       value_loss.backward();
       torch::nn::utils::clip_grad_norm_(params_->parameters(), c_.max_grad_norm);
       torch::nn::utils::clip_grad_norm_(critic_->parameters(), c_.max_grad_norm);
+      if (alphas_) torch::nn::utils::clip_grad_norm_(alphas_->parameters(), c_.max_grad_norm);
       opt_->step();
       torch::NoGradGuard ng;
       sums[2] += value_loss.detach().to(torch::kFloat64);
@@ -199,26 +207,42 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     t_ = 0;
     const auto m = (sums / c_.epochs).to(torch::kCPU);
     torch::NoGradGuard ng;
-    return {m[0].item<double>(),
-            m[1].item<double>(),
-            m[2].item<double>(),
-            kl_after,
-            eta_.item<double>(),
-            pre_.paid.mean().item<double>(),
-            post_.paid.mean().item<double>()};
+    std::vector<double> out = {m[0].item<double>(),
+                               m[1].item<double>(),
+                               m[2].item<double>(),
+                               kl_after,
+                               eta_.item<double>(),
+                               pre_.paid.mean().item<double>(),
+                               post_.paid.mean().item<double>()};
+    if (alphas_) {  // the learned step sizes' mean and range
+      std::vector<torch::Tensor> v;
+      for (auto& a : alphas_->list) v.push_back(c_.inner_lr * a.detach().flatten().exp());
+      const auto all = torch::cat(v);
+      out.push_back(all.mean().item<double>());
+      out.push_back(all.min().item<double>());
+      out.push_back(all.max().item<double>());
+    }
+    return out;
   }
 
   const std::vector<std::string>& metric_names() const override {
-    // reward_pre / reward_post: the mean reward per step before and after adaptation
+    // reward_pre / reward_post: the mean reward per step before and after adaptation;
+    // inner_lr_*: Meta-SGD's learned step sizes (learn_inner_lr)
     static const std::vector<std::string> names = {
         "surrogate", "kl_penalty", "value_loss", "kl", "kl_coef", "reward_pre", "reward_post"};
-    return names;
+    static const std::vector<std::string> with_lr = [] {
+      auto n = names;
+      n.insert(n.end(), {"inner_lr_mean", "inner_lr_min", "inner_lr_max"});
+      return n;
+    }();
+    return alphas_ ? with_lr : names;
   }
 
   void save(torch::serialize::OutputArchive& root) override {
     rl::write_part(root, "meta_policy", *params_);
     rl::write_part(root, "critic", *critic_);
     rl::write_part(root, "optimizer", *opt_);
+    if (alphas_) rl::write_part(root, "inner_lr_log_scale", *alphas_);
     root.write("kl_coef", eta_);
     if (obs_norm_) rl::write_part(root, "obs_norm", *obs_norm_);
     if (scale_) scale_->save(root);
@@ -229,6 +253,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
       rl::read_module(root, "meta_policy", *params_, path, "this run's meta-policy");
       rl::read_module(root, "critic", *critic_, path, "this run's critic");
       rl::read_optimizer(root, "optimizer", *opt_);
+      read_alphas(root, path);
       torch::Tensor eta;
       root.read("kl_coef", eta);
       eta_.copy_(eta.to(torch::kCPU));
@@ -243,6 +268,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
       rl::read_module(root, "meta_policy", *params_, path, "this run's meta-policy");
       rl::read_module(root, "critic", *critic_, path, "this run's critic");
       read_obs_norm(root, path);
+      read_alphas(root, path);
     });
   }
 
@@ -381,6 +407,21 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
     if (obs_norm_) rl::read_module(root, "obs_norm", *obs_norm_, path, "this run's obs_norm");
   }
 
+  void read_alphas(torch::serialize::InputArchive& root, const std::string& path) {
+    if (alphas_)
+      rl::read_module(root, "inner_lr_log_scale", *alphas_, path,
+                      "this run's learned inner step sizes");
+  }
+
+  // the inner step: inner_lr, or Meta-SGD's learned sizes inner_lr exp(rho) (in the graph: the
+  // outer loss differentiates through them)
+  StepSize step_size() const {
+    if (!alphas_) return StepSize(c_.inner_lr);
+    std::vector<torch::Tensor> a;
+    for (auto& rho : alphas_->list) a.push_back(c_.inner_lr * rho.exp());
+    return StepSize(c_.inner_lr, std::move(a));
+  }
+
   // gamma V(last observation) where the time limit cut the step's episode, else 0, [N]
   torch::Tensor bootstrap(const rl::Transition& t) {
     auto b = torch::zeros({t.reward.size(0)}, t.reward.options().dtype(torch::kFloat32));
@@ -393,11 +434,11 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
   // `steps` adaptation steps from `params` on one task's rows
   std::vector<torch::Tensor> adapt(const std::vector<torch::Tensor>& params, const Batch& b,
                                    int steps, bool create_graph) const {
+    const StepSize lr = step_size();
     if (!promp_)
-      return inner_steps(pi_, params, b.obs, b.actions, b.advantages, c_.inner_lr, steps,
-                         create_graph);
+      return inner_steps(pi_, params, b.obs, b.actions, b.advantages, lr, steps, create_graph);
     std::vector<torch::Tensor> p = params;
-    for (int i = 0; i < steps; ++i) p = lvc_inner_step(pi_, p, b, c_.inner_lr, create_graph);
+    for (int i = 0; i < steps; ++i) p = lvc_inner_step(pi_, p, b, lr, create_graph);
     return p;
   }
 
@@ -424,6 +465,9 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
   torch::Device device_;
   FunctionalGaussian pi_;  // the architecture; params_ holds the meta-parameters
   Params params_{nullptr};
+  // learn_inner_lr: Meta-SGD's step sizes as rho, alpha = inner_lr exp(rho), one tensor per
+  // parameter: positive, and on inner_lr's scale for the outer Adam's steps (config.h)
+  Params alphas_{nullptr};
   torch::nn::Sequential critic_{nullptr};
   rl::RunningNorm obs_norm_{nullptr};        // input_norm
   std::unique_ptr<TaskReturnScale> scale_;   // task_reward_norm, when training

@@ -16,7 +16,8 @@ torch::Tensor lvc_loss(const FunctionalGaussian& pi, const std::vector<torch::Te
 
 std::vector<torch::Tensor> lvc_inner_step(const FunctionalGaussian& pi,
                                           const std::vector<torch::Tensor>& params,
-                                          const Batch& b, double inner_lr, bool create_graph) {
+                                          const Batch& b, const StepSize& inner_lr,
+                                          bool create_graph) {
   const auto p = differentiable(params);
   // descending -J_LVC is ascending J_LVC: params + inner_lr * grad J_LVC
   return gradient_step(lvc_loss(pi, p, b), p, inner_lr, create_graph);

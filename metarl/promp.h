@@ -8,6 +8,7 @@
 #include <torch/torch.h>
 
 #include "metarl/functional_policy.h"
+#include "metarl/maml.h"
 
 namespace bidex::metarl {
 
@@ -28,12 +29,14 @@ struct Batch {
 torch::Tensor lvc_loss(const FunctionalGaussian& pi, const std::vector<torch::Tensor>& params,
                        const Batch& b);
 
-// ProMP's inner step, params + inner_lr * grad J_LVC(params); differentiable (second order)
+// ProMP's inner step, params + inner_lr * grad J_LVC(params) (per-parameter sizes: element by
+// element, maml.h's StepSize); differentiable (second order)
 // when create_graph is true. Chain calls for several inner steps, each on the rollouts of the
 // policy adapted so far.
 std::vector<torch::Tensor> lvc_inner_step(const FunctionalGaussian& pi,
                                           const std::vector<torch::Tensor>& params,
-                                          const Batch& b, double inner_lr, bool create_graph);
+                                          const Batch& b, const StepSize& inner_lr,
+                                          bool create_graph);
 
 // The outer surrogate on the adapted policy's rollouts: rl::clipped_surrogate of
 // ratio = exp(log pi_adapted(a|s) - post.logp), post.logp being the log-probability under the

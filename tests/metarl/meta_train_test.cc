@@ -389,6 +389,113 @@ TEST_CASE("MAML's and ProMP's input_norm and task_reward_norm: scale-free inputs
   }
 }
 
+TEST_CASE("MAML's and ProMP's learn_inner_lr (Meta-SGD): step sizes per element that the outer "
+          "loss moves, kept by checkpoints and used at evaluation",
+          "[metarl]") {
+  metarl::register_algorithms();
+  test::TaskTempDir tmp;
+  const std::string suite = tmp.write("raise-goals.yaml", kRaiseGoals);
+  const int64_t D = 6, A = 2, N = 4;
+  const torch::Device cpu(torch::kCPU);
+  for (const char* algo : {"maml", "promp"}) {
+    INFO(algo);
+    const std::string a = algo;
+    auto make = [&](bool learn, int64_t slots) {
+      torch::manual_seed(1);
+      const auto yaml =
+          tiny_meta(algo, suite, {a + ".learn_inner_lr=" + (learn ? "true" : "false")});
+      return rl::make_algorithm(algo, rl::parse_train_config(yaml, "tiny"), D, A, slots, cpu);
+    };
+    // one update on two tasks rewarded for opposite first actions
+    auto train = [&](rl::Algorithm& alg) {
+      alg.set_slot_tasks({0, 0, 1, 1}, 2);
+      torch::manual_seed(2);
+      const auto sign = torch::tensor({1.f, 1.f, -1.f, -1.f});
+      std::vector<double> m;
+      for (int t = 0; t < alg.steps_per_update(); ++t) {
+        const auto obs = torch::randn({N, D});
+        const auto act = alg.act(obs);
+        alg.observe(transition(obs, sign * act.select(1, 0).clamp(-1, 1), torch::zeros({N})));
+      }
+      return alg.update(torch::randn({N, D}));
+    };
+    // an adaptation at evaluation from the same exploration rows
+    auto adapted = [&](rl::Algorithm& alg) {
+      rl::Adaptive* ad = alg.adaptive();
+      const auto obs = torch::ones({N, D});
+      torch::manual_seed(5);
+      ad->begin({0, 0, 1, 1}, 2);
+      for (int t = 0; t < 8; ++t) {
+        const auto act = ad->explore(obs);
+        ad->observe(transition(obs, torch::tensor({1.f, 1.f, -1.f, -1.f}) * act.select(1, 0),
+                               torch::full({N}, t % 4 == 3 ? 1.f : 0.f)),
+                    torch::ones({N}));
+      }
+      ad->adapt(1);
+      return ad->exploit(obs);
+    };
+    auto learned = make(true, N);
+    const auto& names = learned->metric_names();
+    const auto at = [&](const std::string& n) {
+      return std::find(names.begin(), names.end(), n) - names.begin();
+    };
+    REQUIRE(at("inner_lr_max") < static_cast<std::ptrdiff_t>(names.size()));
+    const auto m = train(*learned);
+    REQUIRE(m.size() == names.size());
+    // the sizes started at inner_lr (0.1) and the outer step moved them both ways
+    INFO("inner_lr min " << m[at("inner_lr_min")] << ", mean " << m[at("inner_lr_mean")]
+                         << ", max " << m[at("inner_lr_max")]);
+    CHECK(m[at("inner_lr_min")] < 0.1 * (1 - 1e-5));
+    CHECK(m[at("inner_lr_max")] > 0.1 * (1 + 1e-5));
+    CHECK(m[at("inner_lr_min")] > 0);
+    // without learn_inner_lr there are no such metrics
+    auto plain = make(false, N);
+    CHECK(plain->metric_names().size() == names.size() - 3);
+    CHECK(train(*plain).size() == names.size() - 3);
+
+    // a checkpoint keeps them: a new algorithm that loads it adapts exactly as the trained one;
+    // one that keeps inner_lr everywhere adapts otherwise
+    const std::string ckpt = tmp.file(a + "-metasgd.ckpt");
+    {
+      torch::serialize::OutputArchive root;
+      learned->save(root);
+      root.save_to(ckpt);
+    }
+    auto loaded = make(true, 0);
+    {
+      torch::serialize::InputArchive root;
+      root.load_from(ckpt);
+      loaded->load_actor(root, ckpt);
+    }
+    const auto want = adapted(*learned);
+    CHECK(torch::equal(adapted(*loaded), want));
+    auto same_policy = make(false, 0);  // the meta-policy and critic, the plain step size
+    {
+      torch::serialize::InputArchive root;
+      root.load_from(ckpt);
+      same_policy->load_actor(root, ckpt);
+    }
+    CHECK(torch::equal(same_policy->actor(torch::ones({N, D})), learned->actor(torch::ones({N, D}))));
+    CHECK_FALSE(torch::allclose(adapted(*same_policy), want, 1e-6, 1e-7));
+    // a checkpoint without step sizes is refused by a run that learns them
+    const std::string old = tmp.file(a + "-plain.ckpt");
+    {
+      torch::serialize::OutputArchive root;
+      plain->save(root);
+      root.save_to(old);
+    }
+    auto resumed = make(true, N);
+    resumed->set_slot_tasks({0, 0, 1, 1}, 2);
+    CHECK_THROWS_WITH(
+        [&] {
+          torch::serialize::InputArchive root;
+          root.load_from(old);
+          resumed->load(root, old);
+        }(),
+        Catch::Contains(old));
+  }
+}
+
 TEST_CASE("meta-RL refuses suites without a held-out test split, unknown splits and non-meta "
           "runs, and bad settings name their key",
           "[metarl]") {

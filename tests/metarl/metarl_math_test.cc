@@ -197,6 +197,49 @@ TEST_CASE("MAML's inner step moves a linear Gaussian by the hand-worked policy g
                 flat(p)) == 0);
 }
 
+TEST_CASE("Meta-SGD's step sizes: per element, the scalar step when all equal, learned through "
+          "the step",
+          "[metarl][maml]") {
+  // the hand-worked gradient of the test above: g = (-0.21875, -0.53125 / 3, 1.7890625 / 3)
+  const auto pi = linear_policy();
+  const auto p = linear_params(0.5, 0.25, std::log(2.0));
+  const HandBatch h;
+  const double g[] = {-0.21875, -0.53125 / 3, 1.7890625 / 3};
+  // all sizes 0.1: the scalar step, to the last bit
+  Params tenth;
+  for (const auto& t : p) tenth.push_back(torch::full_like(t, 0.1));
+  const auto scalar = metarl::inner_step(pi, p, h.obs, h.actions, h.adv, 0.1, false);
+  const auto same = metarl::inner_step(pi, p, h.obs, h.actions, h.adv,
+                                       metarl::StepSize(0.1, tenth), false);
+  CHECK(max_abs(flat(same) - flat(scalar)) == 0);
+  // one size per parameter: each moves by its own
+  const double a[] = {0.1, 0.01, 1.0};
+  Params alpha;
+  for (size_t i = 0; i < p.size(); ++i)
+    alpha.push_back(torch::full_like(p[i], a[i]).set_requires_grad(true));
+  const auto q = metarl::inner_step(pi, p, h.obs, h.actions, h.adv,
+                                    metarl::StepSize(0.1, alpha), false);
+  for (size_t i = 0; i < p.size(); ++i) {
+    INFO("parameter " << i);
+    CHECK(q[i].item<double>() == Approx(p[i].item<double>() - a[i] * g[i]).margin(1e-12));
+  }
+  // the sizes are in the graph, also first-order: for f = sum(q), df/dalpha_i = -g_i
+  const auto dalpha = torch::autograd::grad({q[0] + q[1] + q[2]}, alpha);
+  for (size_t i = 0; i < p.size(); ++i) {
+    INFO("parameter " << i);
+    CHECK(dalpha[i].item<double>() == Approx(-g[i]).margin(1e-12));
+  }
+  // ProMP's LVC step takes them the same way: with no sampling log-probabilities its gradient
+  // is the policy gradient, so it moves by the same steps
+  const auto lvc = metarl::lvc_inner_step(pi, p, {h.obs, h.actions, h.adv, {}},
+                                          metarl::StepSize(0.1, alpha), false);
+  CHECK(max_abs(flat(lvc) - flat(q)) < 1e-12);
+  // one size per parameter or none
+  CHECK_THROWS_AS(metarl::inner_step(pi, p, h.obs, h.actions, h.adv,
+                                     metarl::StepSize(0.1, {alpha[0]}), false),
+                  std::invalid_argument);
+}
+
 TEST_CASE("MAML's inner step with create_graph carries the second-order term",
           "[metarl][maml]") {
   // the outer loss: the policy-gradient loss on a second batch, of the policy adapted on a first
