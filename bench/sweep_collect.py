@@ -119,6 +119,9 @@ def summarise(outdir, spec):
     trained = updates[-1] if updates else None
     summary, ev = load(f"{d}/summary.json"), load(f"{d}/eval.json")
     ev_default = load(f"{d}/eval-default.json")  # the part e: under the task's own YAML
+    # the parts eNAME: under bench/sweep/NAME.yaml
+    ev_named = {p[1:]: eval_row(load(f"{d}/eval-{p[1:]}.json")) for p in parts
+                if p.startswith("e") and len(p) > 1}
     end = float(rows[-1]["steps"]) if rows else 0.0
     target = ORIGINAL_PPO_FINAL.get(task)
     reached = [recent(rows, i, comparable) for i in range(len(rows))] if target else []
@@ -146,6 +149,7 @@ def summarise(outdir, spec):
             "return_no_bonus": reached[first]},
         "eval": eval_row(ev),
         "eval_default_yaml": eval_row(ev_default),
+        "eval_under": ev_named,
         "gpu_rows": summary.get("gpu_rows") if summary else None,
     }
     json.dump({k: t[k] for k in ("task", "seed", "original_ppo_final", "reached_original",

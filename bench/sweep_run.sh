@@ -4,7 +4,7 @@
 #   bench/sweep_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
-#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME][/e] (TASK may be
+#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME][/e[NAME]]... (TASK may be
 #       a suite of configs/suites: multi-task PPO on its pack at $SWEEP_SUITE_SLOTS slots, default
 #       65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64, stopping
 #       $SWEEP_SUITE_RESERVE seconds before the deadline, default 600): seed (0 by
@@ -12,7 +12,9 @@
 #       in place of the task's default (env.task_config) and training overrides
 #       bench/sweep/NAME.overrides (KEY=VALUE lines, each given as -o after the sweep's own; the
 #       files say why; e: the final policy also scored under the task's own YAML, as
-#       eval-default.json, for a run trained under another). Each lane runs
+#       eval-default.json, for a run trained under another; eNAME: also under
+#       bench/sweep/NAME.yaml, as eval-NAME.json, e.g. a curriculum held at one level; any number
+#       of e parts). Each lane runs
 #       in its own process session (it outlives the device call), its runs one after the other
 #       on that GPU (CUDA_VISIBLE_DEVICES): PPO at the paper's settings with 16,384 slots and 16
 #       minibatches (the task's section of configs/train/ppo.yaml applies; one that sets the
@@ -90,9 +92,14 @@ eval_yaml() {
   IFS=/ read -ra p <<<"$1"
   for p in "${p[@]:1}"; do
     [[ $p == c* ]] || continue
-    python3 -c 'import sys, yaml
-c = yaml.safe_load(open(sys.argv[1])).get("curriculum") or {}
-sys.exit(0 if c.get("enabled") else 1)' "bench/sweep/${p#c}.yaml" && echo "tasks/$task/$task.yaml"
+    python3 -c 'import os, sys, yaml
+def enabled(path):  # curriculum.enabled, following extends: as the task loader does
+    d = yaml.safe_load(open(path)) or {}
+    c = d.get("curriculum") or {}
+    if "enabled" in c:
+        return bool(c["enabled"])
+    return bool(d.get("extends")) and enabled(os.path.join(os.path.dirname(path), d["extends"]))
+sys.exit(0 if enabled(sys.argv[1]) else 1)' "bench/sweep/${p#c}.yaml" && echo "tasks/$task/$task.yaml"
   done
 }
 
@@ -111,13 +118,18 @@ lane() {
     [[ -z $yaml ]] || args+=(--task-config "$yaml")
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
-    if [[ /$1/ == */e/* ]]; then  # also under the task's own YAML (eval-default.json)
-      local task=${1%%/*}
+    local part parts task=${1%%/*} name
+    IFS=/ read -ra parts <<<"$1"
+    for part in "${parts[@]:1}"; do  # e: also under the task's own YAML; eNAME: under NAME.yaml
+      [[ $part == e* ]] || continue
+      name=${part#e}
+      yaml=bench/sweep/$name.yaml
+      [[ -n $name ]] || { name=default; yaml=tasks/$task/$task.yaml; }
       args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
-            --task-config "tasks/$task/$task.yaml" --json "$log/eval-default.json")
+            --task-config "$yaml" --json "$log/eval-$name.json")
       echo "bidex ${args[*]}" >>"$log/commands.txt"
-      "$bidex" "${args[@]}" >>"$log/eval-default.txt" 2>&1
-    fi
+      "$bidex" "${args[@]}" >>"$log/eval-$name.txt" 2>&1
+    done
   }
   for spec in "$@"; do
     IFS=/ read -ra part <<<"$spec"
@@ -133,8 +145,9 @@ lane() {
               read -r line <<<"${line%%#*}"  # without its comment and surrounding blanks
               [[ -z $line ]] || cfg+=(-o "$line")
             done <"bench/sweep/${p#o}.overrides" ;;
-        e) ;;  # evaluate() reads it
-        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, cNAME, oNAME or e)" >>"$out/lanes.log"; continue 2 ;;
+        e*) [[ $p == e || -f bench/sweep/${p#e}.yaml ]] ||
+              { echo "$spec: no file bench/sweep/${p#e}.yaml" >>"$out/lanes.log"; continue 2; } ;;
+        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, cNAME, oNAME, e or eNAME)" >>"$out/lanes.log"; continue 2 ;;
       esac
     done
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
