@@ -165,7 +165,7 @@ TEST_CASE("WarpTaskEnv steps, rewards and finishes episodes like TaskEnv", "[war
   CHECK(gpu.take_stats().episodes == 0);
 }
 
-TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskEnv does",
+TEST_CASE("WarpTaskEnv pays the doors', the switch's and pour_water's reward variants as TaskEnv does",
           "[warp]") {
   // the same stage bodies with float rows. The two backends' physics differ by a little
   // (hand-distance terms by up to about 0.01 a step here), so each backend is checked against
@@ -174,7 +174,9 @@ TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskE
   // worked out here from the observed handle points. Doors: the default with its gate opened
   // (goal_gate 0) pays 6 (door_close_outward; 2 for door_open_inward) + the goal on the
   // handles' y-distance, the paper 0.2 + the goal on their distance. Switch: the paper's
-  // 50 (1.4 - d) against the default's 50 (0.045 - d), 67.75 more a step.
+  // 50 (1.4 - d) against the default's 50 (0.045 - d), 67.75 more a step. pour_water, its gate
+  // opened (10 m): bidex's 10 (0.5 - d) + 20 min(h, 0.05) against the paper's 2 (0.5 - d), about
+  // 3.2 more a step with the spout 0.1 m from the opening; the same difference on both backends.
   test::TempDir dir;
   auto yaml = [&](const std::string& id, const std::string& reward) {
     const std::string file = dir.file(id + "-" + std::to_string(dir.list().size()) + ".yaml");
@@ -192,7 +194,9 @@ TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskE
        yaml("door_close_outward", "{variant: paper}"), false, 6},
       {"door_open_inward", yaml("door_open_inward", "{goal_gate: 0}"),
        yaml("door_open_inward", "{variant: paper}"), true, 2},
-      {"switch", "", yaml("switch", "{variant: paper}"), false, 0}};
+      {"switch", "", yaml("switch", "{variant: paper}"), false, 0},
+      {"pour_water", yaml("pour_water", "{gate: 10}"),
+       yaml("pour_water", "{variant: paper, gate: 10}"), false, 0}};
   // the expected reward difference a - b of world w from its observation (doors)
   auto door_diff = [](const Case& c, const TaskEnv& env, const float* o) {
     const float* r = o + env.spec().obs.at("right_handle.pos").start;
@@ -218,6 +222,12 @@ TEST_CASE("WarpTaskEnv pays the doors' and the switch's reward variants as TaskE
       for (int w = 0; w < 2; ++w) {
         INFO("step " << t << ", world " << w << ": cpu " << cpu_a.reward[w] << " / "
                      << cpu_b.reward[w] << ", gpu " << ra[w] << " / " << rb[w]);
+        if (c.id == "pour_water") {
+          const double cpu_diff = double(cpu_a.reward[w]) - cpu_b.reward[w];
+          CHECK(cpu_diff > 2.5);  // 8 (0.5 - d) with d near 0.1, and the lift
+          CHECK(double(ra[w]) - rb[w] == Approx(cpu_diff).margin(0.02));
+          continue;
+        }
         const bool sw = c.id == "switch";
         const double want_cpu = sw ? -67.75 : door_diff(c, cpu_a, &cpu_a.obs[w * od]);
         const double want_gpu = sw ? -67.75 : door_diff(c, cpu_a, &og[w * od]);
