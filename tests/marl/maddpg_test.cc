@@ -227,7 +227,7 @@ TEST_CASE("MADDPG acts uniformly at random while warming up, then with its actor
   }
 }
 
-TEST_CASE("MADDPG checkpoints load into a fresh algorithm; another split or width is refused",
+TEST_CASE("MADDPG checkpoints load into a fresh algorithm, and another split or width is refused",
           "[marl][maddpg]") {
   torch::manual_seed(7);
   const auto& spec = spec_of("hand_over");

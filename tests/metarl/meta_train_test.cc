@@ -65,7 +65,8 @@ rl::Transition transition(const torch::Tensor& obs, const torch::Tensor& reward,
 
 }  // namespace
 
-TEST_CASE("maml, promp and rl2 are meta algorithms of the registry; registering twice is refused",
+TEST_CASE("maml, promp and rl2 are meta algorithms of the registry, and registering twice is "
+          "refused",
           "[metarl]") {
   metarl::register_algorithms();
   metarl::register_algorithms();  // a second call does nothing

@@ -389,7 +389,8 @@ TEST_CASE("the clipped surrogate matches hand values inside and outside the clip
   CHECK(surrogate.item<double>() == Approx(-0.3875).margin(1e-12));
 }
 
-TEST_CASE("ProMP's KL term matches the closed form of two diagonal Gaussians; the penalty adapts",
+TEST_CASE("ProMP's KL term matches the closed form of two diagonal Gaussians, and the penalty "
+          "adapts",
           "[metarl][promp]") {
   // KL(N(m0, s0^2) || N(m1, s1^2)) = log(s1 / s0) + (s0^2 + (m0 - m1)^2) / (2 s1^2) - 1/2 per
   // action dimension. Old: mean (x, 0), std (1, 2); new: mean (0.5 x + 0.5, x), std (2, 1).
@@ -465,7 +466,7 @@ TEST_CASE("ProMP's per-task loss differentiates through the LVC step (finite dif
   CHECK(max_abs(exact) > 1e-2);
 }
 
-TEST_CASE("RL^2's hidden state resets at task boundaries only; a sequence is repeated steps",
+TEST_CASE("RL^2's hidden state resets at task boundaries only, and a sequence is repeated steps",
           "[metarl][rl2]") {
   torch::manual_seed(13);
   const int64_t D = 3, A = 2, H = 8, T = 5, N = 2;

@@ -242,7 +242,7 @@ TEST_CASE("dataset: episodes written, verified and read back exactly", "[dataset
   }
 }
 
-TEST_CASE("dataset: the same episodes give the same bytes; another value another checksum",
+TEST_CASE("dataset: the same episodes give the same bytes, and another value another checksum",
           "[dataset][offline]") {
   TempDir tmp;
   const auto eps = three(6, 3, 7);

@@ -257,7 +257,7 @@ TEST_CASE("the sweep's time to each task's goal: the shipped file gives all twen
                                  tasks.begin())].reached_by == "not_reached");
 }
 
-TEST_CASE("a bad time-to-goal file is an error naming the file, the key and the value; the "
+TEST_CASE("a bad time-to-goal file is an error naming the file, the key and the value, and the "
           "registry keeps what it had", "[registry]") {
   RegTempDir dir;
   const std::string path = dir.file("r.sqlite"), file = dir.file("ttg.yaml");
@@ -357,7 +357,7 @@ TEST_CASE("a new edition of the references file updates and withdraws the rows i
 }
 
 TEST_CASE("normalised score = (return - random) / (ground truth - random), empty without a "
-          "reference; an evaluation's scores and their means", "[registry]") {
+          "reference, and an evaluation's scores and their means", "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));
   // hand_over: ground truth 269 (references.yaml), random 2 set here
@@ -373,10 +373,21 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   reg.set_reference({"pen", "random", 10.0, "test"});
   reg.set_reference({"pen", "ground_truth", -10.0, "test"});
   CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
-  // missing references: the file gives every paper task both; a variant task gets a random
-  // score only here
-  reg.set_reference({"hand_over_free", "random", 1.0, "test"});
-  CHECK_FALSE(reg.normalised("hand_over_free", 10.0));  // random only
+  // missing references: the file gives every paper task both; a task added by hand (variants
+  // such as hand_over_free are not registry tasks) gets a random score only here
+  registry::TaskRecord added;
+  added.id = "added_task";
+  added.paper_name = "Added Task";
+  added.age_min = added.age_max = 14;
+  added.age_text = "14";
+  added.difficulty = "easy";
+  added.skill = "a skill";
+  added.obs_dim = 10;
+  added.act_dim = 4;
+  added.origin = "/somewhere/added.yaml";
+  reg.add_task(added);
+  reg.set_reference({"added_task", "random", 1.0, "test"});
+  CHECK_FALSE(reg.normalised("added_task", 10.0));  // random only
   CHECK_FALSE(reg.normalised("no_such_task", 10.0));
   // equal references cannot normalise
   reg.set_reference({"scissors", "random", 3.0, "test"});
@@ -384,7 +395,7 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   CHECK_FALSE(reg.normalised("scissors", 10.0));
 
   // a meta-RL evaluation's entries: each before and after, and the means over the entries
-  // whose task has both references (hand_over and pen here; hand_over_free has no ground truth)
+  // whose task has both references (hand_over and pen here; hand_over_free, a variant, has none)
   std::vector<AdaptScore> scores(3);
   scores[0].task = "hand_over";
   scores[0].return_before = 2.0;   // 0
@@ -516,7 +527,7 @@ TEST_CASE("runs, their scores and suites round-trip", "[registry]") {
   CHECK(mine().members.size() == 2);  // nothing written
 }
 
-TEST_CASE("adding a task: registered in age order; a duplicate or impossible one is refused",
+TEST_CASE("adding a task: registered in age order, and a duplicate or impossible one is refused",
           "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));
@@ -875,7 +886,7 @@ registry::Evaluation ml4_train_evaluation(int64_t run) {
 
 }  // namespace
 
-TEST_CASE("meta-RL evaluations round-trip, by run and by id; runs are found by their folder",
+TEST_CASE("meta-RL evaluations round-trip, by run and by id, and runs are found by their folder",
           "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));

@@ -161,7 +161,7 @@ TEST_CASE("FlatAdam follows parameters and gradients whose storage was replaced"
   both(3);
 }
 
-TEST_CASE("FlatAdam's saved state continues the run; a state of other sizes is refused",
+TEST_CASE("FlatAdam's saved state continues the run, and a state of other sizes is refused",
           "[rl][ppo][flat_adam]") {
   auto a = make_net(1);
   rl::FlatAdam opt_a(a->parameters(), 1e-3);

@@ -65,7 +65,7 @@ TEST_CASE("TD3's actor loss adds the pre-tanh penalty to -Q as hand-worked", "[r
   CHECK(torch::allclose(p.grad(), pre * 0.25));
 }
 
-TEST_CASE("TD3 delays its actor; DDPG moves it every critic step", "[rl][td3]") {
+TEST_CASE("TD3 delays its actor, and DDPG moves it every critic step", "[rl][td3]") {
   for (const char* algo : {"td3", "ddpg"}) {
     INFO(algo);
     const rl::TrainConfig c = rl::parse_train_config(tiny(algo), "tiny");

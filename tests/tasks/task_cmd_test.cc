@@ -91,7 +91,7 @@ TEST_CASE("bidex play writes its statistics as JSON", "[tasks][apps]") {
   CHECK(j.at("episodes").at("faults") == 0);
 }
 
-TEST_CASE("bidex play picks its device and says why; a GPU it cannot have is a clear error",
+TEST_CASE("bidex play picks its device and says why, and a GPU it cannot have is a clear error",
           "[tasks][apps]") {
   // auto: pen's stages do not run on the GPU, so the CPU, whatever the machine has
   CommandResult r = bidex_run("play --task pen --policy zero --steps 2 --slots 2 --json /dev/null");
