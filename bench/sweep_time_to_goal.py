@@ -79,19 +79,19 @@ def main():
     ap.add_argument("--bidex", default="build/apps/bidex")
     ap.add_argument("--out", default="configs/registry/time_to_goal.yaml")
     a = ap.parse_args()
-    best = {}  # task -> (trained slot-steps, run dir, run, commit)
-    versions = {}
+    best = {}  # task -> (run dir, run)
+    info = {}  # task -> `bidex info --json`
     for d in a.dirs:
         sweep = json.load(open(os.path.join(d, "sweep.json")))
         for run in sweep["runs"]:
             task, rd = run["task"], os.path.join(d, run["run"])
             if not os.path.exists(os.path.join(rd, "config.yaml")):
                 continue
-            if task not in versions:
-                info = json.loads(subprocess.run([a.bidex, "info", "--task", task, "--json"],
-                                                 check=True, capture_output=True, text=True).stdout)
-                versions[task] = info["version"]
-            if not is_default(rd, task, versions[task]):
+            if task not in info:
+                info[task] = json.loads(subprocess.run([a.bidex, "info", "--task", task, "--json"],
+                                                       check=True, capture_output=True,
+                                                       text=True).stdout)
+            if not is_default(rd, task, info[task]["version"]):
                 continue
             run = {**run, "commit": sweep["commit"]}
             if task not in best or run["slot_steps"] > best[task][1]["slot_steps"]:
@@ -111,14 +111,12 @@ def main():
     for t, v in values.items():
         s = "-" if v["slot_steps"] is None else f"{v['slot_steps'] / 1e6:.1f}M"
         print(f"{t:<22} {v['goal']:<15} {s:>7} {v['by']:<12} trained {v['trained'] / 1e6:.1f}M  {v['run']}")
-    missing = sorted(set(versions) - set(values))
+    missing = sorted(set(info) - set(values))
     if missing:
         print("no default run:", ", ".join(missing))
     # does a skill that comes later to infants take PPO longer? Spearman's rank correlation of
     # the age (the middle of its range) and the slot-steps (a task not reached ranks last)
-    ages = {t: json.loads(subprocess.run([a.bidex, "info", "--task", t, "--json"], check=True,
-                                         capture_output=True, text=True).stdout)["age"]
-            for t in values}
+    ages = {t: info[t]["age"] for t in values}
     xs = [0.5 * (ages[t]["min_months"] + ages[t]["max_months"]) for t in values]
     ys = [v["slot_steps"] if v["slot_steps"] is not None else float("inf") for v in values.values()]
     print(f"Spearman's rank correlation of human age and slot-steps to the goal over "

@@ -216,7 +216,7 @@ class GradientMeta final : public rl::Algorithm, public rl::Adaptive {
                                post_.paid.mean().item<double>()};
     if (alphas_) {  // the learned step sizes' mean and range
       std::vector<torch::Tensor> v;
-      for (auto& a : alphas_->list) v.push_back(c_.inner_lr * a.detach().flatten().exp());
+      for (auto& a : step_size().per_param) v.push_back(a.detach().flatten());
       const auto all = torch::cat(v);
       out.push_back(all.mean().item<double>());
       out.push_back(all.min().item<double>());

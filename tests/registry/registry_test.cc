@@ -47,6 +47,24 @@ const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"swing_cup", 7926.30},       {"grasp_and_place", 470.251},  {"block_stack", 742.893},
     {"re_orientation", 669.694},  {"pour_water", 635.309}};
 
+// A task as `add_task` takes it: human age `age_min`-`age_max` months, 10 observations, 4
+// actions, easy, from a YAML file elsewhere.
+registry::TaskRecord added_task(const std::string& id, int age_min, int age_max) {
+  registry::TaskRecord t;
+  t.id = id;
+  t.paper_name = "Added Task";
+  t.age_min = age_min;
+  t.age_max = age_max;
+  t.age_text = age_min == age_max ? std::to_string(age_min)
+                                  : std::to_string(age_min) + "-" + std::to_string(age_max);
+  t.difficulty = "easy";
+  t.skill = "a skill";
+  t.obs_dim = 10;
+  t.act_dim = 4;
+  t.origin = "/somewhere/added.yaml";
+  return t;
+}
+
 std::vector<std::string> ids(const std::vector<registry::TaskRecord>& ts) {
   std::vector<std::string> out;
   for (auto& t : ts) out.push_back(t.id);
@@ -375,17 +393,7 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
   // missing references: the file gives every paper task both; a task added by hand (variants
   // such as hand_over_free are not registry tasks) gets a random score only here
-  registry::TaskRecord added;
-  added.id = "added_task";
-  added.paper_name = "Added Task";
-  added.age_min = added.age_max = 14;
-  added.age_text = "14";
-  added.difficulty = "easy";
-  added.skill = "a skill";
-  added.obs_dim = 10;
-  added.act_dim = 4;
-  added.origin = "/somewhere/added.yaml";
-  reg.add_task(added);
+  reg.add_task(added_task("added_task", 14, 14));
   reg.set_reference({"added_task", "random", 1.0, "test"});
   CHECK_FALSE(reg.normalised("added_task", 10.0));  // random only
   CHECK_FALSE(reg.normalised("no_such_task", 10.0));
@@ -531,16 +539,9 @@ TEST_CASE("adding a task: registered in age order, and a duplicate or impossible
           "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));
-  registry::TaskRecord t;
-  t.id = "toddler_task";
+  registry::TaskRecord t = added_task("toddler_task", 14, 16);
   t.paper_name = "Toddler Task";
-  t.age_min = 14;
-  t.age_max = 16;
-  t.age_text = "14-16";
   t.difficulty = "medium";
-  t.skill = "a skill";
-  t.obs_dim = 10;
-  t.act_dim = 4;
   t.origin = "/somewhere/toddler.yaml";
   t.sources["age"] = "a book";
   reg.add_task(t);
