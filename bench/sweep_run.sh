@@ -4,10 +4,13 @@
 #   bench/sweep_run.sh build OUTDIR PARTS
 #       join the bundle's parts and build bidex (bench/physics_step_run.sh build)
 #   bench/sweep_run.sh start OUTDIR SECONDS LANE...
-#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/cNAME][/oNAME][/e[NAME]]... (TASK may be
-#       a suite of configs/suites: multi-task PPO on its pack at $SWEEP_SUITE_SLOTS slots, default
-#       65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64, stopping
-#       $SWEEP_SUITE_RESERVE seconds before the deadline, default 600): seed (0 by
+#       LANE is GPU=RUN,RUN,... and RUN is TASK[/sSEED][/mMILLIONS][/aALGO][/cNAME][/oNAME][/e[NAME]]...
+#       (TASK may be a suite of configs/suites: multi-task PPO on its pack at $SWEEP_SUITE_SLOTS
+#       slots, default 65,536, evaluated over $SWEEP_SUITE_EPISODES episodes a task, default 64, 0
+#       for none, stopping $SWEEP_SUITE_RESERVE seconds before the deadline, default 600; a suite's
+#       run is never extended): aALGO trains with `bidex train --algo ALGO` at the slots and
+#       settings of configs/train/ALGO.yaml in place of (multi-task) PPO's (e.g.
+#       MT4/amtsac/osac_replay); seed (0 by
 #       default), slot-steps in millions (default $SWEEP_STEPS), a task YAML bench/sweep/NAME.yaml
 #       in place of the task's default (env.task_config) and training overrides
 #       bench/sweep/NAME.overrides (KEY=VALUE lines, each given as -o after the sweep's own; the
@@ -108,10 +111,11 @@ lane() {
   local gpu=$1 deadline=$2
   shift 2
   export CUDA_VISIBLE_DEVICES=$gpu
-  local spec task seed msteps cfg part p dir log left line
+  local spec task seed msteps cfg algo part p dir log left line
   evaluate() {  # evaluate RUN
     local log="$out/${1//\//-}" yaml episodes=256
     is_suite "${1%%/*}" && episodes=$suite_episodes
+    ((episodes > 0)) || return 0
     local args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
                 --json "$log/eval.json")
     yaml=$(eval_yaml "$1")
@@ -133,11 +137,12 @@ lane() {
   }
   for spec in "$@"; do
     IFS=/ read -ra part <<<"$spec"
-    task=${part[0]}; seed=0; msteps=$steps; cfg=()
+    task=${part[0]}; seed=0; msteps=$steps; cfg=(); algo=()
     for p in "${part[@]:1}"; do
       case $p in
         s*) seed=${p#s} ;;
         m*) msteps=$((${p#m} * 1000000)) ;;
+        a*) algo=(--algo "${p#a}") ;;
         c*) cfg+=(-o env.task_config="bench/sweep/${p#c}.yaml") ;;
         o*) [[ -f bench/sweep/${p#o}.overrides ]] ||
               { echo "$spec: no file bench/sweep/${p#o}.overrides" >>"$out/lanes.log"; continue 2; }
@@ -147,7 +152,7 @@ lane() {
             done <"bench/sweep/${p#o}.overrides" ;;
         e*) [[ $p == e || -f bench/sweep/${p#e}.yaml ]] ||
               { echo "$spec: no file bench/sweep/${p#e}.yaml" >>"$out/lanes.log"; continue 2; } ;;
-        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, cNAME, oNAME, e or eNAME)" >>"$out/lanes.log"; continue 2 ;;
+        *) echo "$spec: unknown part $p (sSEED, mMILLIONS, aALGO, cNAME, oNAME, e or eNAME)" >>"$out/lanes.log"; continue 2 ;;
       esac
     done
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
@@ -160,15 +165,18 @@ lane() {
     if [[ -f $dir/config.yaml ]]; then
       args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
     elif is_suite "$task"; then  # multi-task PPO on the suite's pack (issue 37)
-      args=(train --suite "$task" --device "$device" --run "$dir" --no-registry --time-limit "$left"
-            -o env.slots="$suite_slots" -o seed="$seed" -o train.steps="$msteps"
+      local scale=(-o env.slots="$suite_slots")
+      ((${#algo[@]} == 0)) || scale=()  # another algorithm: its own YAML's slots
+      args=(train --suite "$task" "${algo[@]}" --device "$device" --run "$dir" --no-registry
+            --time-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     else
-      # the sweep's slots and minibatches, unless the task's section of ppo.yaml sets its own
+      # the sweep's slots and minibatches, unless the task's section of ppo.yaml sets its own or
+      # another algorithm trains (its own YAML's settings)
       local scale=(-o env.slots="$slots" -o ppo.minibatches=16)
-      own_slots "$task" && scale=()
-      args=(train --task "$task" --device "$device" --run "$dir" --no-registry --time-limit "$left"
-            "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
+      { own_slots "$task" || ((${#algo[@]} > 0)); } && scale=()
+      args=(train --task "$task" "${algo[@]}" --device "$device" --run "$dir" --no-registry
+            --time-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     fi
     echo "bidex ${args[*]}" >>"$log/commands.txt"
@@ -183,7 +191,10 @@ lane() {
   while (($(wc -l <"$out/gpu$gpu.first") < $(cat "$out/gpu$gpu.lanes"))) &&
         (($(date +%s) < deadline - reserve)); do sleep 10; done
   local rising=()
-  for spec in "$@"; do still_rising "$(run_dir "$spec")" && rising+=("$spec"); done
+  for spec in "$@"; do  # a suite's run is not extended: its length is its own (e.g. MT20's 300M)
+    is_suite "${spec%%/*}" && continue
+    still_rising "$(run_dir "$spec")" && rising+=("$spec")
+  done
   local n=${#rising[@]} i=0
   for spec in "${rising[@]}"; do
     dir=$(run_dir "$spec"); log="$out/${spec//\//-}"
