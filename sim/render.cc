@@ -19,14 +19,13 @@
 // One offscreen GL backend per build (cmake/BidexDependencies.cmake sets the define); only its
 // headers are used here, its library is opened at run time. MuJoCo's GL loader takes the first of
 // eglGetProcAddress, OSMesaGetProcAddress, glXGetProcAddressARB that the process's global symbols
-// offer, once per process, so one backend only is ever loaded.
+// offer, once per process, so one backend only is ever loaded. With neither (BIDEX_RENDER_GL=NONE,
+// or AUTO finding none) no GL header is included at all: the build needs no OpenGL packages.
 #if defined(BIDEX_GL_OSMESA)
 #include <GL/osmesa.h>
 #elif defined(BIDEX_GL_EGL)
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
-#include <GL/gl.h>
-#else
 #include <GL/gl.h>
 #endif
 #if defined(BIDEX_HAVE_PNG)
@@ -80,7 +79,7 @@ struct RenderingScope {
 // RTLD_GLOBAL, because MuJoCo's loader looks its GetProcAddress up among the global symbols.
 
 // Whether the space-separated `list` (of GL or EGL extensions) holds `word`.
-bool has_word(const char* list, const char* word) {
+[[maybe_unused]] bool has_word(const char* list, const char* word) {
   if (!list) return false;
   size_t n = std::strlen(word);
   for (const char* p = std::strstr(list, word); p; p = std::strstr(p + 1, word))
@@ -278,14 +277,19 @@ class GlContext {
 class GlContext {
  public:
   GlContext(int, int) {
-    throw Error("render: this build has no offscreen OpenGL backend (BIDEX_RENDER_GL=NONE, or "
-                "CMake found neither OSMesa nor EGL): install libosmesa6-dev (scripts/setup.sh) "
-                "and reconfigure");
+    throw Error("render: this build has no OpenGL rendering (configured with "
+                "BIDEX_RENDER_GL=NONE, or AUTO found neither OSMesa nor EGL): install "
+                "libosmesa6-dev (scripts/setup.sh) or libegl-dev and reconfigure with "
+                "-DBIDEX_RENDER_GL=AUTO, OSMESA or EGL");
   }
-  void* proc(const char*) const { return nullptr; }
 };
 
+// never reached: GlContext's constructor throws
+int check_gl(const GlContext&, int, int) { return 0; }
+
 #endif
+
+#if defined(BIDEX_GL_OSMESA) || defined(BIDEX_GL_EGL)
 
 // What MuJoCo's renderer needs of the context (it would end the process otherwise): OpenGL 1.5
 // with framebuffer objects, renderbuffers of the image's size. Returns GL_MAX_SAMPLES.
@@ -319,6 +323,8 @@ int check_gl(const GlContext& gl, int width, int height) {
                 " pixels a side, " + renderer + ")");
   return max_samples;
 }
+
+#endif
 
 // ---------------------------------------------------------------------------------------------
 // MuJoCo objects with their release.
