@@ -1,13 +1,17 @@
 #!/usr/bin/env python3
-"""A multi-task run's training figures per task (issue 37): from its metrics.csv, the mean return
-and success rate of each task over the updates in the last WINDOW slot-steps in which its episodes
-ended, and the return normalised by the registry's references (random 0, ground truth 1).
+"""A multi-task run's figures per task (issue 37): from its metrics.csv, the mean return and success
+rate of each task over the updates in the last WINDOW slot-steps in which its episodes ended, and
+the return normalised by the registry's references (random 0, ground truth 1) of the member's
+task id, as the registry normalises (a member labelled hand_over that plays hand_over_free takes
+hand_over_free's references, none where it has none); where the folder
+holds eval.json (bidex eval --run DIR --json), the mean action's return, success and normalised
+score beside them.
 
-These are training figures (sampled actions), not the mean action's evaluation (bidex eval --run).
-Each update's per-task mean counts once: metrics.csv does not keep a task's episode count.
+The training figures come from sampled actions. Each update's per-task mean counts once:
+metrics.csv does not keep a task's episode count.
 Usage: bench/suite_train_table.py RUN_DIR [--window 1e7] [--references configs/registry/references.yaml]
 """
-import argparse, csv, math, os, sys
+import argparse, csv, json, math, os, sys
 
 import yaml
 
@@ -36,6 +40,17 @@ def fmt(x, digits=2):
     return "" if x is None else f"{x:,.{digits}f}"
 
 
+def member_tasks(run):
+    """{label: task id} of the run's suite (run.json's suite, configs/suites/SUITE.yaml), or {}"""
+    info = os.path.join(run, "run.json")
+    suite = (json.load(open(info)).get("suite") or "") if os.path.exists(info) else ""
+    path = suite if suite.endswith(".yaml") else os.path.join("configs", "suites", f"{suite}.yaml")
+    if not suite or not os.path.exists(path):
+        return {}
+    doc = yaml.safe_load(open(path)) or {}
+    return {m.get("label", m["task"]): m["task"] for m in doc.get("train") or []}
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("run")
@@ -52,26 +67,57 @@ def main():
     if not tasks:
         sys.exit(f"suite_train_table: {path} has no return_TASK columns (not a suite run)")
     refs = yaml.safe_load(open(a.references)) or {}
+    task_of = member_tasks(a.run)
     random, truth = section(refs, "random"), section(refs, "ground_truth")
+    evaluated = {}
+    eval_path = os.path.join(a.run, "eval.json")
+    if os.path.exists(eval_path):
+        try:
+            evaluated = {t["label"]: t for t in json.load(open(eval_path))["per_task"]}
+        except (ValueError, KeyError, TypeError) as e:
+            sys.exit(f"suite_train_table: {eval_path}: expected bidex eval's JSON with per_task "
+                     f"entries (label, mean_return, success_rate): {e!r}")
     end = float(rows[-1]["steps"])
     recent = [r for r in rows if float(r["steps"]) > end - a.window]
     print(f"{a.run}: {len(rows)} updates, {end / 1e6:.1f}M slot-steps, {float(rows[-1]['wall_s']):.0f} s; "
           f"median training rate {sorted(float(r['fps']) for r in rows)[len(rows) // 2]:,.0f} "
           f"slot-steps/s; the last {a.window / 1e6:g}M slot-steps ({len(recent)} updates)")
     print()
-    print("| task | training return | training success | random | ground truth | normalised |")
-    print("|---|---|---|---|---|---|")
-    norms, succs = [], []
+    head = "| task | training return | training success | random | ground truth | normalised |"
+    rule = "|---|---|---|---|---|---|"
+    if evaluated:
+        head += " mean action: return | success | normalised |"
+        rule += "---|---|---|"
+    print(head)
+    print(rule)
+
+    def normalised(ret, lo, hi):
+        return None if None in (ret, lo, hi) or hi == lo else (ret - lo) / (hi - lo)
+
+    norms, succs, e_norms, e_succs = [], [], [], []
     for t in tasks:
         ret = mean(num(r[f"return_{t}"]) for r in recent)
         suc = mean(num(r.get(f"success_{t}")) for r in recent)
-        lo, hi = random.get(t), truth.get(t)
-        norm = None if None in (ret, lo, hi) or hi == lo else (ret - lo) / (hi - lo)
+        lo, hi = random.get(task_of.get(t, t)), truth.get(task_of.get(t, t))
+        norm = normalised(ret, lo, hi)
         norms.append(norm)
         succs.append(suc)
-        print(f"| {t} | {fmt(ret)} | {fmt(suc)} | {fmt(lo)} | {fmt(hi)} | {fmt(norm)} |")
+        name = t if task_of.get(t, t) == t else f"{t} ({task_of[t]})"
+        line = f"| {name} | {fmt(ret)} | {fmt(suc)} | {fmt(lo)} | {fmt(hi)} | {fmt(norm)} |"
+        if evaluated:
+            e = evaluated.get(t) or {}
+            e_ret, e_suc = num(e.get("mean_return")), num(e.get("success_rate"))
+            e_norm = normalised(e_ret, lo, hi)
+            e_norms.append(e_norm)
+            e_succs.append(e_suc)
+            line += f" {fmt(e_ret)} | {fmt(e_suc)} | {fmt(e_norm)} |"
+        print(line)
     n = [x for x in norms if x is not None]
-    print(f"| **mean** | | {fmt(mean(succs))} | | | **{fmt(mean(n))}** ({len(n)} of {len(tasks)} tasks) |")
+    line = f"| **mean** | | {fmt(mean(succs))} | | | **{fmt(mean(n))}** ({len(n)} of {len(tasks)} tasks) |"
+    if evaluated:
+        en = [x for x in e_norms if x is not None]
+        line += f" | {fmt(mean(e_succs))} | **{fmt(mean(en))}** ({len(en)} of {len(tasks)}) |"
+    print(line)
 
 
 if __name__ == "__main__":

@@ -50,6 +50,11 @@
 #       later `start` of RUN resumes
 # Run folders stay on the machine under $SWEEP_RUNS (default /tmp/bidex-sweep). BIDEX_COMMIT
 # names the commit in the results; BIDEX_GPU_BUILD is the build folder (default build-gpu).
+# $SWEEP_REGISTRY: a registry file the runs and meta-RL evaluations are recorded in (put it in
+# OUTDIR and `pack` brings it back; `bidex registry scores|evals|report age --registry FILE` then
+# read it); unset, nothing is recorded. A meta-RL suite's run (mode: meta, e.g. ML20/apromp) is
+# evaluated on both splits before and after adaptation, $SWEEP_META_EPISODES slots a task
+# (default 8), as eval-train.json and eval-test.json.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:?stage: build, start, wait, stop, collect or pack}
@@ -74,6 +79,12 @@ suite_reserve=${SWEEP_SUITE_RESERVE:-600}
 
 # is_suite NAME: exit 0 when NAME is a suite of configs/suites (MT20: multi-task PPO on its pack)
 is_suite() { [[ -f configs/suites/$1.yaml ]]; }
+
+# is_meta NAME: exit 0 when NAME is a meta-RL suite (mode: meta in configs/suites/NAME.yaml)
+is_meta() { is_suite "$1" && grep -q '^mode: *meta' "configs/suites/$1.yaml"; }
+
+[[ -z ${SWEEP_REGISTRY:-} ]] || SWEEP_REGISTRY=$(realpath -m "$SWEEP_REGISTRY")
+meta_episodes=${SWEEP_META_EPISODES:-8}
 
 # run_dir RUN: the run folder of TASK or TASK/sSEED
 run_dir() { echo "$runs/${1//\//-}"; }
@@ -111,12 +122,23 @@ lane() {
   local gpu=$1 deadline=$2
   shift 2
   export CUDA_VISIBLE_DEVICES=$gpu
+  local registry=(--no-registry)  # the registry arguments of every train and eval command
+  [[ -z $SWEEP_REGISTRY ]] || registry=(--registry "$SWEEP_REGISTRY")
   local spec task seed msteps cfg algo part p dir log left line
   evaluate() {  # evaluate RUN
-    local log="$out/${1//\//-}" yaml episodes=256
+    local log="$out/${1//\//-}" yaml episodes=256 split args
+    if is_meta "${1%%/*}"; then  # before and after adaptation, on each split
+      for split in train test; do
+        args=(eval --run "$(run_dir "$1")" --split "$split" --episodes "$meta_episodes" --threads 8
+              "${registry[@]}" --json "$log/eval-$split.json")
+        echo "bidex ${args[*]}" >>"$log/commands.txt"
+        "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
+      done
+      return 0
+    fi
     is_suite "${1%%/*}" && episodes=$suite_episodes
     ((episodes > 0)) || return 0
-    local args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
+    args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
                 --json "$log/eval.json")
     yaml=$(eval_yaml "$1")
     [[ -z $yaml ]] || args+=(--task-config "$yaml")
@@ -163,11 +185,11 @@ lane() {
     ((left > 30)) || { echo "$spec: no time left" >>"$out/lanes.log"; continue; }
     local args
     if [[ -f $dir/config.yaml ]]; then
-      args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
+      args=(train --resume "$dir" --device "$device" "${registry[@]}" --time-limit "$left")
     elif is_suite "$task"; then  # multi-task PPO on the suite's pack (issue 37)
       local scale=(-o env.slots="$suite_slots")
       ((${#algo[@]} == 0)) || scale=()  # another algorithm: its own YAML's slots
-      args=(train --suite "$task" "${algo[@]}" --device "$device" --run "$dir" --no-registry
+      args=(train --suite "$task" "${algo[@]}" --device "$device" --run "$dir" "${registry[@]}"
             --time-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     else
@@ -175,7 +197,7 @@ lane() {
       # another algorithm trains (its own YAML's settings)
       local scale=(-o env.slots="$slots" -o ppo.minibatches=16)
       { own_slots "$task" || ((${#algo[@]} > 0)); } && scale=()
-      args=(train --task "$task" "${algo[@]}" --device "$device" --run "$dir" --no-registry
+      args=(train --task "$task" "${algo[@]}" --device "$device" --run "$dir" "${registry[@]}"
             --time-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     fi
@@ -202,7 +224,7 @@ lane() {
     i=$((i + 1))
     ((left > 60)) || continue
     sed -i 's/^  steps: .*/  steps: 100000000/' "$dir/config.yaml"
-    local args=(train --resume "$dir" --device "$device" --no-registry --time-limit "$left")
+    local args=(train --resume "$dir" --device "$device" "${registry[@]}" --time-limit "$left")
     echo "bidex ${args[*]}  # still rising: extended towards 100M" >>"$log/commands.txt"
     echo "$(date -u +%T) $spec: extend for ${left}s on GPU $gpu" >>"$out/lanes.log"
     "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"
@@ -226,8 +248,10 @@ start)
     gpu=${spec%%=*}
     IFS=, read -ra list <<<"${spec#*=}"
     echo "${list[*]}" >>"$out/lanes"
-    export -f lane run_dir still_rising own_slots eval_yaml is_suite
-    export out runs steps slots device bidex reserve suite_slots suite_episodes suite_reserve
+    export -f lane run_dir still_rising own_slots eval_yaml is_suite is_meta
+    export out runs steps slots device bidex reserve suite_slots suite_episodes suite_reserve \
+      meta_episodes
+    export SWEEP_REGISTRY=${SWEEP_REGISTRY:-}
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &
   done
