@@ -8,8 +8,11 @@ single-task ground truth, and the normalised score after adaptation per split: t
 tasks with both references in configs/registry/references.yaml (or $BIDEX_REFERENCES) of
 (return - random) / (ground truth - random), with how many of the split's tasks it covers. The
 original's ProMP row gets its normalised score from the original's own random and ground-truth
-rows (its table reports suite means, so the score is of the means). Writes DIR/table.md and
-DIR/summary.json.
+rows (its table reports suite means, so the score is of the means). A run folder's
+eval-test-adaptN.json (bench/sweep_run.sh's SWEEP_META_ADAPT=N: N adaptation episodes, and N
+gradient steps for MAML and ProMP) is a row of its own, so that the one-episode protocol stays
+comparable. The folders may also be bench/sweep_run.sh's (SUITE-aALGO-...). Writes DIR/table.md
+and DIR/summary.json.
 Usage: bench/meta_table.py DIR"""
 import csv
 import json
@@ -119,6 +122,17 @@ def main(d):
                 "normalised_after": {p: {"mean": norm[p][0], "tasks": norm[p][1],
                                          "of": norm[p][2]} for p in norm},
                 "random": {p: rnd[p] and rnd[p]["mean_return"] for p in rnd}})
+            # more adaptation on the test split (bench/sweep_run.sh's SWEEP_META_ADAPT): own rows
+            for name in sorted(n for n in os.listdir(os.path.join(d, f"{s}-{a}"))
+                               if n.startswith("eval-test-adapt") and n.endswith(".json")):
+                more = load(os.path.join(d, f"{s}-{a}", name))
+                n = normalised(more, refs, "return_after")
+                k = name[len("eval-test-adapt"):-len(".json")]
+                rows.append(f"| {s} | {a}, {k} adaptation episodes (ours, {steps} slot-steps) | - | "
+                            f"{fmt(more['return_after'])} | - | {fmt(more['return_before'])} | - | "
+                            f"{cell(n)} |")
+                summary["runs"][-1].setdefault("test_more_adaptation", {})[k] = {
+                    "eval": more, "normalised_after": {"mean": n[0], "tasks": n[1], "of": n[2]}}
     table = ["| suite | policy | train (after) | test (after) | train (before) | test (before) "
              "| train normalised (after) | test normalised (after) |",
              "|---|---|---|---|---|---|---|---|"] + rows

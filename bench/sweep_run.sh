@@ -54,7 +54,9 @@
 # OUTDIR and `pack` brings it back; `bidex registry scores|evals|report age --registry FILE` then
 # read it); unset, nothing is recorded. A meta-RL suite's run (mode: meta, e.g. ML20/apromp) is
 # evaluated on both splits before and after adaptation, $SWEEP_META_EPISODES slots a task
-# (default 8), as eval-train.json and eval-test.json.
+# (default 8), as eval-train.json and eval-test.json, the one-episode protocol; with
+# $SWEEP_META_ADAPT=N also on the test split after N adaptation episodes (and N gradient steps
+# for MAML and ProMP), as eval-test-adaptN.json, a row of its own.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:?stage: build, start, wait, stop, collect or pack}
@@ -85,6 +87,7 @@ is_meta() { is_suite "$1" && grep -q '^mode: *meta' "configs/suites/$1.yaml"; }
 
 [[ -z ${SWEEP_REGISTRY:-} ]] || SWEEP_REGISTRY=$(realpath -m "$SWEEP_REGISTRY")
 meta_episodes=${SWEEP_META_EPISODES:-8}
+meta_adapt=${SWEEP_META_ADAPT:-}
 
 # run_dir RUN: the run folder of TASK or TASK/sSEED
 run_dir() { echo "$runs/${1//\//-}"; }
@@ -134,6 +137,14 @@ lane() {
         echo "bidex ${args[*]}" >>"$log/commands.txt"
         "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
       done
+      if [[ -n $meta_adapt ]]; then  # more adaptation, its own row (RL2 adapts in memory only)
+        args=(eval --run "$(run_dir "$1")" --split test --episodes "$meta_episodes" --threads 8
+              --adapt-episodes "$meta_adapt" "${registry[@]}" --json "$log/eval-test-adapt$meta_adapt.json")
+        grep -q '^algo: *rl2' "$(run_dir "$1")/config.yaml" 2>/dev/null ||
+          args+=(--adapt-steps "$meta_adapt")
+        echo "bidex ${args[*]}" >>"$log/commands.txt"
+        "$bidex" "${args[@]}" >>"$log/eval.txt" 2>&1
+      fi
       return 0
     fi
     is_suite "${1%%/*}" && episodes=$suite_episodes
@@ -250,7 +261,7 @@ start)
     echo "${list[*]}" >>"$out/lanes"
     export -f lane run_dir still_rising own_slots eval_yaml is_suite is_meta
     export out runs steps slots device bidex reserve suite_slots suite_episodes suite_reserve \
-      meta_episodes
+      meta_episodes meta_adapt
     export SWEEP_REGISTRY=${SWEEP_REGISTRY:-}
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &
