@@ -118,7 +118,10 @@ void FlatAdam::save(torch::serialize::OutputArchive& archive) const {
 
 void FlatAdam::load(torch::serialize::InputArchive& archive) {
   torch::Tensor exp_avg, exp_avg_sq, step, lr;
-  archive.read("exp_avg", exp_avg);
+  if (!archive.try_read("exp_avg", exp_avg)) {
+    load_libtorch_adam(archive);
+    return;
+  }
   archive.read("exp_avg_sq", exp_avg_sq);
   archive.read("step", step);
   archive.read("lr", lr);
@@ -132,6 +135,65 @@ void FlatAdam::load(torch::serialize::InputArchive& archive) {
   exp_avg_sq_.copy_(exp_avg_sq);
   lr_.fill_(lr.item<double>());
   step_.fill_(step.item<double>());
+}
+
+void FlatAdam::load_libtorch_adam(torch::serialize::InputArchive& archive) {
+  // torch/optim/serialize.h: "pytorch_version", "state" (one archive per parameter that has
+  // stepped, named by the address its tensor had) and "param_groups" (each group's parameters
+  // as those names, in the optimiser's order)
+  c10::IValue version;
+  torch::serialize::InputArchive state, groups, group;
+  TORCH_CHECK(archive.try_read("pytorch_version", version) && archive.try_read("state", state) &&
+                  archive.try_read("param_groups", groups),
+              "FlatAdam: the saved optimiser state is neither FlatAdam's (exp_avg, exp_avg_sq, "
+              "step, lr) nor LibTorch Adam's (pytorch_version, state, param_groups)");
+  torch::Tensor ngroups, nparams;
+  groups.read("param_groups/size", ngroups);
+  TORCH_CHECK(ngroups.item<int64_t>() == 1, "FlatAdam: the saved LibTorch Adam state has ",
+              ngroups.item<int64_t>(), " parameter groups, FlatAdam one");
+  groups.read("param_groups/0", group);
+  group.read("params/size", nparams);
+  const auto n = static_cast<size_t>(nparams.item<int64_t>());
+  TORCH_CHECK(n == params_.size(), "FlatAdam: the saved LibTorch Adam state is of ", n,
+              " parameters, this optimiser's of ", params_.size());
+  std::vector<torch::Tensor> avg(n), avg_sq(n);
+  int64_t steps = 0;
+  size_t stepped = 0;
+  for (size_t k = 0; k < n; ++k) {
+    c10::IValue name;
+    group.read("params/" + std::to_string(k), name);
+    torch::serialize::InputArchive s;
+    if (!state.try_read(name.toStringRef(), s)) continue;  // never stepped
+    c10::IValue step;
+    s.read("step", step);
+    s.read("exp_avg", avg[k]);
+    s.read("exp_avg_sq", avg_sq[k]);
+    const auto& place = value_views_[k];
+    TORCH_CHECK(avg[k].sizes() == place.sizes() && avg_sq[k].sizes() == place.sizes(),
+                "FlatAdam: the saved LibTorch Adam moments of parameter ", k, " have shapes ",
+                avg[k].sizes(), " and ", avg_sq[k].sizes(), ", the parameter ", place.sizes());
+    TORCH_CHECK(stepped == 0 || step.toInt() == steps, "FlatAdam: in the saved LibTorch Adam state",
+                " parameter ", k, " took ", step.toInt(), " steps, an earlier one ", steps,
+                " (FlatAdam counts one for all)");
+    steps = step.toInt();
+    ++stepped;
+  }
+  TORCH_CHECK(stepped == 0 || stepped == n, "FlatAdam: the saved LibTorch Adam state has moments",
+              " of ", stepped, " of its ", n, " parameters (FlatAdam steps them all together)");
+  torch::NoGradGuard ng;
+  if (stepped == 0) {
+    exp_avg_.zero_();
+    exp_avg_sq_.zero_();
+  } else {
+    int64_t at = 0;  // each parameter's place, as in the constructor
+    for (size_t k = 0; k < n; ++k) {
+      const int64_t len = value_views_[k].numel();
+      exp_avg_.narrow(0, at, len).copy_(avg[k].reshape({-1}));
+      exp_avg_sq_.narrow(0, at, len).copy_(avg_sq[k].reshape({-1}));
+      at += len;
+    }
+  }
+  step_.fill_(static_cast<double>(steps));
 }
 
 }  // namespace bidex::rl

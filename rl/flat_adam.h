@@ -62,6 +62,14 @@ class FlatAdam {
 
   // The moments, the step count and the learning rate. load() checks that the moments fit
   // these parameters (a c10::Error naming both sizes).
+  //
+  // load() also takes the state LibTorch's torch::optim::Adam saves (save()'s archive of an Adam
+  // of one parameter group over the same parameters in the same order, as the learners'
+  // checkpoints held before they moved to FlatAdam): each parameter's moments go to its place in
+  // the flat buffers and its step count to the one count, which must then be the same for every
+  // parameter (an Adam none of whose parameters has stepped loads as a fresh state). The rate
+  // stays this optimiser's, as LibTorch's Adam::load keeps its options. An archive of neither
+  // kind, or of other parameters, is a c10::Error saying so.
   void save(torch::serialize::OutputArchive& archive) const;
   void load(torch::serialize::InputArchive& archive);
 
@@ -71,6 +79,9 @@ class FlatAdam {
   void rebind();
 
  private:
+  // load() of a LibTorch Adam's archive
+  void load_libtorch_adam(torch::serialize::InputArchive& archive);
+
   std::vector<torch::Tensor> params_;
   // each parameter's place in the flat buffers, shaped as the parameter
   std::vector<torch::Tensor> value_views_, grad_views_;

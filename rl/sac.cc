@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "rl/checkpoint.h"
+#include "rl/flat_adam.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
 #include "taskpack/suite.h"
@@ -84,12 +85,10 @@ class SacAlgorithm final : public Algorithm {
     log_alpha_ = torch::full({std::max<int64_t>(ntasks, 1)}, std::log(c_.init_alpha),
                              torch::TensorOptions().dtype(torch::kFloat32).device(device))
                      .set_requires_grad(true);
-    actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
-                                                      torch::optim::AdamOptions(c_.lr));
-    critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),
-                                                       torch::optim::AdamOptions(c_.lr));
-    alpha_opt_ = std::make_unique<torch::optim::Adam>(std::vector<torch::Tensor>{log_alpha_},
-                                                      torch::optim::AdamOptions(c_.lr));
+    // on the device now: FlatAdam moves the parameters into its flat buffers (rl/flat_adam.h)
+    actor_opt_ = std::make_unique<FlatAdam>(actor_->parameters(), c_.lr);
+    critic_opt_ = std::make_unique<FlatAdam>(critic_->parameters(), c_.lr);
+    alpha_opt_ = std::make_unique<FlatAdam>(std::vector<torch::Tensor>{log_alpha_}, c_.lr);
     if (N > 0) replay_ = std::make_unique<ReplayBuffer>(c_.replay_size, D, A, device);
   }
 
@@ -128,9 +127,13 @@ class SacAlgorithm final : public Algorithm {
       }
       auto [q1, q2] = critic_->forward(b.obs, b.actions);
       auto q_loss = 0.5 * ((q1 - target).pow(2).mean() + (q2 - target).pow(2).mean());
+      // Each optimiser's loss reaches every one of its parameters, so that no gradient is
+      // undefined at a step (FlatAdam would step it as zero where LibTorch's Adam skipped it),
+      // and each zero_grad() comes before its loss's backward (the actor's loss also reaches
+      // the critics: the next critic step zeroes that first)
       critic_opt_->zero_grad();
       q_loss.backward();
-      torch::nn::utils::clip_grad_norm_(critic_->parameters(), c_.max_grad_norm);
+      critic_opt_->clip_grad_norm(c_.max_grad_norm);
       critic_opt_->step();
       // actor
       auto [a_new, logp] = actor_->sample(b.obs);
@@ -138,7 +141,7 @@ class SacAlgorithm final : public Algorithm {
       auto actor_loss = (alpha * logp - torch::min(q1p, q2p)).mean();
       actor_opt_->zero_grad();
       actor_loss.backward();
-      torch::nn::utils::clip_grad_norm_(actor_->parameters(), c_.max_grad_norm);
+      actor_opt_->clip_grad_norm(c_.max_grad_norm);
       actor_opt_->step();
       // temperature
       auto alpha_loss = sac_alpha_loss(row_log_alpha, logp, target_entropy_);
@@ -188,6 +191,9 @@ class SacAlgorithm final : public Algorithm {
       torch::NoGradGuard ng;
       log_alpha_.copy_(la);
     });
+    // the loaded parameters (new storage) back into the optimisers' flat buffers
+    actor_opt_->rebind();
+    critic_opt_->rebind();
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
@@ -207,7 +213,7 @@ class SacAlgorithm final : public Algorithm {
   QCritic critic_, target_;
   torch::Tensor log_alpha_;
   double target_entropy_;
-  std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_, alpha_opt_;
+  std::unique_ptr<FlatAdam> actor_opt_, critic_opt_, alpha_opt_;
   std::unique_ptr<ReplayBuffer> replay_;
   torch::Tensor last_obs_, last_act_;
 };

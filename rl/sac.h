@@ -2,7 +2,10 @@
 // state-dependent std, two critics with Polyak-averaged targets, an entropy temperature learned
 // towards the target entropy -act_dim, and the ReplayBuffer. Each update follows `horizon` steps
 // of every slot (their transitions added to the buffer) with `minibatches` gradient steps on
-// `batch_size` sampled transitions. The pieces below are the losses' formulas, for tests.
+// `batch_size` sampled transitions. The actor, the critics and the temperature each step with
+// FlatAdam (rl/flat_adam.h; the checkpoint parts actor_optimizer, critic_optimizer and
+// alpha_optimizer, which load LibTorch Adam's state of older checkpoints too). The pieces below
+// are the losses' formulas, for tests.
 #pragma once
 
 #include <memory>

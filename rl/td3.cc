@@ -1,6 +1,7 @@
 #include "rl/td3.h"
 
 #include "rl/checkpoint.h"
+#include "rl/flat_adam.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
 
@@ -49,10 +50,9 @@ class Td3Algorithm final : public Algorithm {
       m->to(device);
     make_target(*actor_, *actor_target_);
     make_target(*critic_, *critic_target_);
-    actor_opt_ = std::make_unique<torch::optim::Adam>(actor_->parameters(),
-                                                      torch::optim::AdamOptions(c_.lr));
-    critic_opt_ = std::make_unique<torch::optim::Adam>(critic_->parameters(),
-                                                       torch::optim::AdamOptions(c_.lr));
+    // on the device now: FlatAdam moves the parameters into its flat buffers (rl/flat_adam.h)
+    actor_opt_ = std::make_unique<FlatAdam>(actor_->parameters(), c_.lr);
+    critic_opt_ = std::make_unique<FlatAdam>(critic_->parameters(), c_.lr);
     steps_ = torch::zeros({1}, torch::kInt64);
     if (N > 0) replay_ = std::make_unique<ReplayBuffer>(c_.replay_size, D, A, device);
   }
@@ -93,9 +93,13 @@ class Td3Algorithm final : public Algorithm {
       auto [q1, q2] = critic_->forward(b.obs, b.actions);
       auto q_loss = (q1 - target).pow(2).mean();
       if (c_.twin) q_loss = 0.5 * (q_loss + (q2 - target).pow(2).mean());
+      // Each optimiser's loss reaches every one of its parameters (DDPG has no q2), so that no
+      // gradient is undefined at a step (FlatAdam would step it as zero where LibTorch's Adam
+      // skipped it), and each zero_grad() comes before its loss's backward (the actor's loss
+      // also reaches q1: the next critic step zeroes that first)
       critic_opt_->zero_grad();
       q_loss.backward();
-      torch::nn::utils::clip_grad_norm_(critic_->parameters(), c_.max_grad_norm);
+      critic_opt_->clip_grad_norm(c_.max_grad_norm);
       critic_opt_->step();
       torch::Tensor actor_loss = torch::zeros({}, q_loss.options());
       if (td3_actor_step(step, c_.policy_delay)) {
@@ -105,7 +109,7 @@ class Td3Algorithm final : public Algorithm {
         saturated += mu_b.detach().abs().gt(0.99).to(torch::kFloat64).mean();
         actor_opt_->zero_grad();
         actor_loss.backward();
-        torch::nn::utils::clip_grad_norm_(actor_->parameters(), c_.max_grad_norm);
+        actor_opt_->clip_grad_norm(c_.max_grad_norm);
         actor_opt_->step();
         polyak_update(*actor_, *actor_target_, c_.polyak);
         polyak_update(*critic_, *critic_target_, c_.polyak);
@@ -150,6 +154,9 @@ class Td3Algorithm final : public Algorithm {
       root.read("gradient_steps", s);
       steps_.copy_(s.to(torch::kCPU));
     });
+    // the loaded parameters (new storage) back into the optimisers' flat buffers
+    actor_opt_->rebind();
+    critic_opt_->rebind();
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
@@ -166,7 +173,7 @@ class Td3Algorithm final : public Algorithm {
   Td3Config c_;
   Td3Actor actor_, actor_target_;
   QCritic critic_, critic_target_;
-  std::unique_ptr<torch::optim::Adam> actor_opt_, critic_opt_;
+  std::unique_ptr<FlatAdam> actor_opt_, critic_opt_;
   std::unique_ptr<ReplayBuffer> replay_;
   torch::Tensor steps_;  // gradient steps so far (the policy delay's phase; checkpointed)
   torch::Tensor last_obs_, last_act_;

@@ -4,7 +4,9 @@
 // epochs x minibatches gradient steps on `batch_size` sampled transitions. TD3 adds a second
 // critic (the minimum of the two in the target), target policy smoothing (clipped noise on the
 // target action) and a delayed actor: the actor and the targets move every `policy_delay`
-// critic steps. DDPG is the same class with one critic, no smoothing and no delay.
+// critic steps. DDPG is the same class with one critic, no smoothing and no delay. The actor and
+// the critics step with FlatAdam (rl/flat_adam.h; the checkpoint parts actor_optimizer and
+// critic_optimizer, which load LibTorch Adam's state of older checkpoints too).
 // Optionally (preact_l2 > 0) the actor's loss also penalises its squared pre-tanh output, as
 // Andrychowicz et al. 2017 (hindsight experience replay) do against tanh saturation: without it,
 // on catch_underarm_raise every action component sits at +-1 within a few updates, where tanh's

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "rl/checkpoint.h"
+#include "rl/flat_adam.h"
 #include "rl/onpolicy.h"
 
 namespace bidex::rl {
@@ -109,8 +110,9 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
       : GaussianOnPolicy(config.ppo, D, A, N, device) {
     const TrpoConfig& t = config.trpo;
     step_ = {t.max_kl, t.damping, t.cg_iters, t.backtracks, t.accept_ratio, t.step_fraction};
-    critic_opt_ = std::make_unique<torch::optim::Adam>(model_->critic_parameters(),
-                                                       torch::optim::AdamOptions(c_.lr));
+    // the model is on its device (GaussianOnPolicy): FlatAdam moves the critic's parameters
+    // into its flat buffers (rl/flat_adam.h)
+    critic_opt_ = std::make_unique<FlatAdam>(model_->critic_parameters(), c_.lr);
   }
 
   std::vector<double> update(const torch::Tensor& obs) override {
@@ -154,9 +156,11 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
         auto idx = perm.narrow(0, k * mb, mb);
         auto value_loss = (model_->raw_value(nobs.index_select(0, idx)) -
                            targets.index_select(0, idx)).pow(2).mean();
+        // the value loss reaches every parameter of the critic: no gradient is undefined at a
+        // step (FlatAdam would step it as zero where LibTorch's Adam skipped it)
         critic_opt_->zero_grad();
         (c_.value_coef * value_loss).backward();
-        torch::nn::utils::clip_grad_norm_(model_->critic_parameters(), c_.max_grad_norm);
+        critic_opt_->clip_grad_norm(c_.max_grad_norm);
         critic_opt_->step();
         value_sum += value_loss.detach().to(torch::kFloat64);
         ++n;
@@ -183,11 +187,12 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
       read_module(root, "model", *model_, path, "this run's networks");
       read_optimizer(root, "critic_optimizer", *critic_opt_);
     });
+    critic_opt_->rebind();  // the loaded critic (new storage) back into the flat buffers
   }
 
  private:
   NaturalStepSettings step_;
-  std::unique_ptr<torch::optim::Adam> critic_opt_;
+  std::unique_ptr<FlatAdam> critic_opt_;
 };
 
 }  // namespace

@@ -2,7 +2,9 @@
 // gradient step per update, its direction from conjugate gradient on the Fisher matrix (the
 // Hessian of the mean KL between the rollout's policy and the new one, damped), its length from
 // the KL bound, then a backtracking line search that keeps the KL bound and a real improvement
-// of the surrogate; the critic learns by Adam on the returns (epochs x minibatches).
+// of the surrogate; the critic learns by Adam on the returns (epochs x minibatches): FlatAdam
+// (rl/flat_adam.h; the checkpoint part critic_optimizer, which loads LibTorch Adam's state of
+// older checkpoints too).
 #pragma once
 
 #include <functional>

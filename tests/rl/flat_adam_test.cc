@@ -2,7 +2,8 @@
 // parameter tensors of several shapes): the same parameters and norms step after step, with the
 // learning rate changing and the clip on and off; gradients accumulated in place in the flat
 // buffer; parameters and gradients whose storage a module load, set_ or a set-to-none
-// zero_grad replaced still optimised; and the optimiser's state saved and loaded.
+// zero_grad replaced still optimised; the optimiser's state saved and loaded; and LibTorch Adam's
+// saved state (the optimiser parts of older SAC, TD3, DDPG and TRPO checkpoints) loaded.
 #include "tests/rl/rl_fixture.h"
 
 #include <sstream>
@@ -220,5 +221,89 @@ TEST_CASE("FlatAdam's saved state continues the run, and a state of other sizes 
     INFO(msg);
     CHECK(msg.find("[" + std::to_string(saved) + "]") != std::string::npos);
     CHECK(msg.find("[" + std::to_string(here) + "]") != std::string::npos);
+  }
+}
+
+TEST_CASE("FlatAdam loads LibTorch Adam's saved state and steps on as that Adam would",
+          "[rl][flat_adam]") {
+  // the optimiser part of checkpoints written before SAC, TD3, DDPG and TRPO moved to FlatAdam
+  auto bytes_of = [](const torch::optim::Adam& opt) {
+    torch::serialize::OutputArchive out;
+    opt.save(out);
+    std::ostringstream bytes;
+    out.save_to(bytes);
+    return bytes.str();
+  };
+  auto archive = [](const std::string& bytes) {
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes);
+    in.load_from(is);
+    return in;
+  };
+  auto ref = make_net(1);
+  torch::optim::Adam ref_opt(ref->parameters(), torch::optim::AdamOptions(1e-3));
+  const std::string unstepped = bytes_of(ref_opt);
+  for (int k = 0; k < 4; ++k) reference_step(ref, ref_opt, batch_at(k), lr_at(k), max_norm_at(k));
+  const std::string stepped = bytes_of(ref_opt);
+  // flat and fresh: ref's weights now; flat has stepped elsewhere before it loads
+  auto flat = make_net(2), fresh = make_net(3);
+  rl::FlatAdam opt(flat->parameters(), 0.5), opt_fresh(fresh->parameters(), 1e-3);
+  for (int k = 0; k < 2; ++k) flat_step(flat, opt, batch_at(k), lr_at(k), max_norm_at(k));
+  opt.set_lr(0.5);
+  {
+    torch::NoGradGuard ng;
+    for (auto* net : {&flat, &fresh}) {
+      auto dst = (*net)->parameters();
+      auto src = ref->parameters();
+      for (size_t j = 0; j < dst.size(); ++j) dst[j].copy_(src[j]);
+    }
+  }
+  // an Adam that never stepped has no state: FlatAdam's is then a fresh one, rate kept
+  {
+    auto in = archive(unstepped);
+    opt.load(in);
+  }
+  CHECK(opt.steps() == 0);
+  CHECK(opt.lr() == 0.5);
+  {
+    auto in = archive(stepped);
+    opt.load(in);
+  }
+  CHECK(opt.steps() == 4);
+  CHECK(opt.lr() == 0.5);  // LibTorch's Adam::load keeps the rate too
+  for (int k = 4; k < 8; ++k) {
+    const double want = reference_step(ref, ref_opt, batch_at(k), lr_at(k), max_norm_at(k));
+    CHECK(flat_step(flat, opt, batch_at(k), lr_at(k), max_norm_at(k)) ==
+          Approx(want).epsilon(1e-6));
+    flat_step(fresh, opt_fresh, batch_at(k), lr_at(k), max_norm_at(k));
+    INFO("step " << k);
+    CHECK(test::max_param_diff(*flat, *ref) < 1e-6);
+  }
+  CHECK(test::max_param_diff(*fresh, *ref) > 1e-3);  // the loaded moments and count mattered
+  // LibTorch Adam state of other parameters, and an archive of neither kind: errors saying so
+  rl::PpoConfig c;
+  c.hidden = {16, 9};
+  rl::ActorCritic wide(5, 3, c);
+  rl::FlatAdam opt_wide(wide->parameters(), 1e-3);
+  torch::nn::Linear lin(2, 2);
+  rl::FlatAdam opt_lin(lin->parameters(), 1e-3);
+  torch::serialize::OutputArchive module_out;
+  lin->save(module_out);
+  std::ostringstream module_bytes;
+  module_out.save_to(module_bytes);
+  for (auto [o, bytes, expected] :
+       {std::tuple{&opt_wide, stepped,
+                   "have shapes [8, 16] and [8, 16], the parameter [9, 16]"},
+        std::tuple{&opt_lin, stepped, "LibTorch Adam state is of 13 parameters, this "
+                                      "optimiser's of 2"},
+        std::tuple{&opt_lin, module_bytes.str(), "neither FlatAdam's"}}) {
+    INFO(expected);
+    auto in = archive(bytes);
+    try {
+      o->load(in);
+      FAIL("loaded");
+    } catch (const c10::Error& e) {
+      CHECK_THAT(e.what(), Catch::Contains(expected));
+    }
   }
 }

@@ -1,6 +1,7 @@
 // rl/sac: the critics' target, the temperature's loss and the squashed Gaussian's density against
-// hand-worked values, and a SAC run's checkpoints.
-#include "tests/rl/rl_fixture.h"
+// hand-worked values, a SAC run's checkpoints, and SAC's and MTSAC's updates with FlatAdam
+// against the same updates with LibTorch's Adam.
+#include "tests/rl/mirror_fixture.h"
 
 #include <cmath>
 
@@ -8,6 +9,7 @@
 #include "core/files.h"
 #include "rl/checkpoint.h"
 #include "rl/policy.h"
+#include "rl/replay.h"
 #include "rl/sac.h"
 #include "rl/trainer.h"
 
@@ -136,4 +138,192 @@ TEST_CASE("an MTSAC run on a suite trains, resumes and evaluates per task", "[rl
   rl::LoadedPolicy p(dir);
   const auto e = rl::evaluate(p, 2, 3, 1);
   CHECK(e.per_task.size() == 4);
+}
+
+namespace {
+
+// rl/sac.cc's actor (its module "net" of 2A outputs: the mean and the clamped log-std).
+struct MirrorSacActor : torch::nn::Module {
+  MirrorSacActor(int64_t D, int64_t A, const rl::SacConfig& c) : act_dim(A) {
+    net = register_module("net", rl::mlp(D, c.hidden, 2 * A, c.activation, 0.01));
+  }
+  std::pair<torch::Tensor, torch::Tensor> sample(const torch::Tensor& obs) {
+    auto out = net->forward(obs);
+    auto mu = out.narrow(1, 0, act_dim), log_std = out.narrow(1, act_dim, act_dim).clamp(-20, 2);
+    auto u = mu + torch::exp(log_std) * torch::randn_like(mu);
+    return {torch::tanh(u), rl::tanh_gaussian_log_prob(u, mu, log_std)};
+  }
+  int64_t act_dim;
+  torch::nn::Sequential net{nullptr};
+};
+
+// SAC's update (rl/sac.cc) as it was with LibTorch's Adam and clip_grad_norm_, on copies of a
+// SAC's networks and temperature read from its checkpoint state.
+struct SacMirror {
+  SacMirror(const rl::SacConfig& config, int64_t D, int64_t A, int64_t ntasks,
+            torch::serialize::InputArchive& root)
+      : c(config),
+        ntasks(ntasks),
+        target_entropy(-static_cast<double>(A)),
+        actor(std::make_shared<MirrorSacActor>(D, A, config)),
+        critic(D, A, config.hidden, config.activation, true),
+        target(D, A, config.hidden, config.activation, true) {
+    test::load_part(root, "actor", *actor);
+    test::load_part(root, "critic", *critic);
+    test::load_part(root, "target", *target);
+    root.read("log_alpha", log_alpha);
+    log_alpha = log_alpha.detach().clone().set_requires_grad(true);
+    actor_opt = std::make_unique<torch::optim::Adam>(actor->parameters(),
+                                                     torch::optim::AdamOptions(c.lr));
+    critic_opt = std::make_unique<torch::optim::Adam>(critic->parameters(),
+                                                      torch::optim::AdamOptions(c.lr));
+    alpha_opt = std::make_unique<torch::optim::Adam>(std::vector<torch::Tensor>{log_alpha},
+                                                     torch::optim::AdamOptions(c.lr));
+  }
+
+  // the metrics of SacAlgorithm::update
+  std::vector<double> update(const rl::ReplayBuffer& replay) {
+    std::vector<double> sums(6, 0.0);
+    for (int k = 0; k < c.minibatches; ++k) {
+      const auto b = replay.sample(c.batch_size);
+      const torch::Tensor row_log_alpha =
+          ntasks > 0 ? log_alpha.index_select(0, rl::task_ids(b.obs, ntasks)) : log_alpha;
+      const torch::Tensor alpha = torch::exp(row_log_alpha).detach();
+      torch::Tensor y;
+      {
+        torch::NoGradGuard ng;
+        auto [a_next, logp_next] = actor->sample(b.next_obs);
+        auto [q1n, q2n] = target->forward(b.next_obs, a_next);
+        const torch::Tensor alpha_next =
+            ntasks > 0 ? torch::exp(log_alpha.index_select(0, rl::task_ids(b.next_obs, ntasks)))
+                       : alpha;
+        y = rl::sac_q_target(b.rewards, b.terminal, q1n, q2n, logp_next, alpha_next, c.gamma);
+      }
+      auto [q1, q2] = critic->forward(b.obs, b.actions);
+      auto q_loss = 0.5 * ((q1 - y).pow(2).mean() + (q2 - y).pow(2).mean());
+      critic_opt->zero_grad();
+      q_loss.backward();
+      critic_norms.push_back(
+          torch::nn::utils::clip_grad_norm_(critic->parameters(), c.max_grad_norm));
+      critic_opt->step();
+      auto [a_new, logp] = actor->sample(b.obs);
+      auto [q1p, q2p] = critic->forward(b.obs, a_new);
+      auto actor_loss = (alpha * logp - torch::min(q1p, q2p)).mean();
+      actor_opt->zero_grad();
+      actor_loss.backward();
+      actor_norms.push_back(
+          torch::nn::utils::clip_grad_norm_(actor->parameters(), c.max_grad_norm));
+      actor_opt->step();
+      auto alpha_loss = rl::sac_alpha_loss(row_log_alpha, logp, target_entropy);
+      if (c.learn_alpha) {
+        alpha_opt->zero_grad();
+        alpha_loss.backward();
+        alpha_opt->step();
+      }
+      rl::polyak_update(*critic, *target, c.polyak);
+      torch::NoGradGuard ng;
+      const double row[6] = {q_loss.item<double>(),
+                             actor_loss.item<double>(),
+                             alpha_loss.item<double>(),
+                             -logp.mean().item<double>(),
+                             q1.mean().item<double>(),
+                             torch::exp(log_alpha).mean().item<double>()};
+      for (int i = 0; i < 6; ++i) sums[i] += row[i] / c.minibatches;
+    }
+    return sums;
+  }
+
+  rl::SacConfig c;
+  int64_t ntasks;
+  double target_entropy;
+  std::shared_ptr<MirrorSacActor> actor;
+  rl::QCritic critic, target;
+  torch::Tensor log_alpha;
+  std::unique_ptr<torch::optim::Adam> actor_opt, critic_opt, alpha_opt;
+  std::vector<double> critic_norms, actor_norms;  // the clips' norms
+};
+
+}  // namespace
+
+TEST_CASE("SAC's and MTSAC's FlatAdam updates step as LibTorch's Adam with clip_grad_norm_ did",
+          "[rl][sac][mtsac][flat_adam]") {
+  for (const std::string algo : {"sac", "mtsac"}) {
+    INFO(algo);
+    // a learned temperature (catch_underarm_raise's default fixes it), a rate that moves the
+    // weights well beyond the tolerance, and a clip that binds on every critic step and some
+    // actor steps
+    std::vector<std::string> o = tiny_sac();
+    for (const char* e : {"sac.minibatches=3", "sac.learn_alpha=true", "sac.init_alpha=0.2",
+                          "sac.lr=1e-3", "sac.max_grad_norm=0.5"})
+      o.push_back(e);
+    const bool mt = algo == "mtsac";
+    const rl::TrainConfig c = rl::parse_train_config(
+        rl::resolve_train_yaml(rl::default_train_config(algo), algo,
+                               mt ? "MT4" : "catch_underarm_raise", o),
+        "tiny");
+    REQUIRE(c.sac.learn_alpha);
+    // MT4's four train tasks: the last 4 columns are the one-hot task id
+    const int64_t N = 8, ntasks = mt ? 4 : 0, D = 5 + ntasks, A = 3;
+    torch::manual_seed(3);
+    auto alg = rl::make_algorithm(algo, c, D, A, N, torch::Device(torch::kCPU));
+    auto observation = [&] {
+      auto obs = torch::randn({N, D});
+      if (mt)
+        obs.narrow(1, D - ntasks, ntasks)
+            .copy_(torch::one_hot(torch::randint(ntasks, {N}), ntasks).to(torch::kFloat32));
+      return obs;
+    };
+    // three steps of every slot into the learner's replay buffer and an identical one
+    rl::ReplayBuffer replay(c.sac.replay_size, D, A, torch::Device(torch::kCPU));
+    auto obs = observation();
+    for (int t = 0; t < 3; ++t) {
+      const auto a = alg->act(obs);
+      rl::Transition tr;
+      tr.obs = observation();
+      tr.reward = torch::randn({N});
+      // slot 1's episode ends by itself (terminal), slot 2's at its time limit (bootstrapped)
+      tr.done = torch::zeros({N});
+      tr.done.narrow(0, 1, 2).fill_(1);
+      tr.final_ids = torch::tensor({int64_t(2)});
+      tr.final_obs = observation().narrow(0, 0, 1);
+      alg->observe(tr);
+      replay.add(obs, a, tr, c.sac.reward_scale);
+      obs = tr.obs;
+    }
+    auto start = test::saved_state(*alg);
+    SacMirror mirror(c.sac, D, A, ntasks, start);
+    const auto actor0 = test::param_copies(*mirror.actor);
+    const auto critic0 = test::param_copies(*mirror.critic);
+    const auto log_alpha0 = mirror.log_alpha.detach().clone();
+    // two updates of three gradient steps, each from the same seed
+    for (int u = 0; u < 2; ++u) {
+      torch::manual_seed(100 + u);
+      const auto got = alg->update(obs);
+      torch::manual_seed(100 + u);
+      const auto want = mirror.update(replay);
+      REQUIRE(got.size() == want.size());
+      for (size_t i = 0; i < got.size(); ++i) {
+        INFO("update " << u << ", " << alg->metric_names()[i]);
+        CHECK(got[i] == Approx(want[i]).epsilon(1e-4).margin(1e-5));
+      }
+    }
+    test::check_clips(mirror.critic_norms, mirror.actor_norms, c.sac.max_grad_norm);
+    auto after = test::saved_state(*alg);
+    MirrorSacActor actor(D, A, c.sac);
+    rl::QCritic critic(D, A, c.sac.hidden, c.sac.activation, true),
+        target(D, A, c.sac.hidden, c.sac.activation, true);
+    test::load_part(after, "actor", actor);
+    test::load_part(after, "critic", *critic);
+    test::load_part(after, "target", *target);
+    torch::Tensor log_alpha;
+    after.read("log_alpha", log_alpha);
+    CHECK(test::max_param_diff(actor, *mirror.actor) < test::kMirrorTol);
+    CHECK(test::max_param_diff(*critic, *mirror.critic) < test::kMirrorTol);
+    CHECK(test::max_param_diff(*target, *mirror.target) < test::kMirrorTol);
+    CHECK(test::max_diff({log_alpha}, {mirror.log_alpha.detach()}) < test::kMirrorTol);
+    // ... while every part moved far more than that
+    CHECK(test::max_diff(actor0, actor.parameters()) > 100 * test::kMirrorTol);
+    CHECK(test::max_diff(critic0, critic->parameters()) > 100 * test::kMirrorTol);
+    CHECK(test::max_diff({log_alpha0}, {log_alpha}) > 100 * test::kMirrorTol);
+  }
 }

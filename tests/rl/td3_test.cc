@@ -1,8 +1,8 @@
 // rl/td3: TD3's target policy smoothing, clipped double-Q target and delayed actor against
 // hand-worked values; a bandit's optimum learned; TD3 and DDPG runs that stop, resume from their
 // checkpoints and evaluate; a checkpoint of one loaded as the other is refused; bad settings
-// name their key.
-#include "tests/rl/rl_fixture.h"
+// name their key; their updates with FlatAdam against the same updates with LibTorch's Adam.
+#include "tests/rl/mirror_fixture.h"
 
 #include <algorithm>
 #include <cmath>
@@ -10,6 +10,8 @@
 #include "core/error.h"
 #include "rl/algorithm.h"
 #include "rl/checkpoint.h"
+#include "rl/policy.h"
+#include "rl/replay.h"
 #include "rl/td3.h"
 #include "rl/trainer.h"
 
@@ -189,5 +191,158 @@ TEST_CASE("TD3 and DDPG learn a one-step bandit's best action", "[rl][td3]") {
     const auto best = alg->actor(obs.slice(0, 0, 1))[0];
     INFO("actor " << best);
     CHECK((best - target).abs().max().item<float>() < 0.1f);
+  }
+}
+
+namespace {
+
+// rl/td3.cc's actor (its module "net" of A outputs, squashed by tanh).
+struct MirrorTd3Actor : torch::nn::Module {
+  MirrorTd3Actor(int64_t D, int64_t A, const rl::Td3Config& c) {
+    net = register_module("net", rl::mlp(D, c.hidden, A, c.activation, 0.01));
+  }
+  torch::Tensor forward(const torch::Tensor& obs) { return torch::tanh(net->forward(obs)); }
+  torch::nn::Sequential net{nullptr};
+};
+
+// TD3's and DDPG's update (rl/td3.cc) as it was with LibTorch's Adam and clip_grad_norm_, on
+// copies of the learner's networks and step count read from its checkpoint state.
+struct Td3Mirror {
+  Td3Mirror(const rl::Td3Config& config, int64_t D, int64_t A,
+            torch::serialize::InputArchive& root)
+      : c(config),
+        actor(std::make_shared<MirrorTd3Actor>(D, A, config)),
+        actor_target(std::make_shared<MirrorTd3Actor>(D, A, config)),
+        critic(D, A, config.hidden, config.activation, config.twin),
+        critic_target(D, A, config.hidden, config.activation, config.twin) {
+    test::load_part(root, "actor", *actor);
+    test::load_part(root, "actor_target", *actor_target);
+    test::load_part(root, "critic", *critic);
+    test::load_part(root, "critic_target", *critic_target);
+    torch::Tensor s;
+    root.read("gradient_steps", s);
+    step = s.item<int64_t>();
+    actor_opt = std::make_unique<torch::optim::Adam>(actor->parameters(),
+                                                     torch::optim::AdamOptions(c.lr));
+    critic_opt = std::make_unique<torch::optim::Adam>(critic->parameters(),
+                                                      torch::optim::AdamOptions(c.lr));
+  }
+
+  // q_loss, actor_loss (per actor step), q_mean, actor_steps: Td3Algorithm::update's first four
+  std::vector<double> update(const rl::ReplayBuffer& replay) {
+    double q_loss_sum = 0, actor_loss_sum = 0, q_sum = 0;
+    int actor_steps = 0;
+    const int n = c.epochs * c.minibatches;
+    for (int k = 0; k < n; ++k, ++step) {
+      const auto b = replay.sample(c.batch_size);
+      torch::Tensor y;
+      {
+        torch::NoGradGuard ng;
+        auto mu = actor_target->forward(b.next_obs);
+        auto a_next = rl::td3_target_action(mu, torch::randn_like(mu), c.target_noise,
+                                            c.noise_clip);
+        auto [q1n, q2n] = critic_target->forward(b.next_obs, a_next);
+        y = rl::td3_q_target(b.rewards, b.terminal, q1n, q2n, c.gamma);
+      }
+      auto [q1, q2] = critic->forward(b.obs, b.actions);
+      auto q_loss = (q1 - y).pow(2).mean();
+      if (c.twin) q_loss = 0.5 * (q_loss + (q2 - y).pow(2).mean());
+      critic_opt->zero_grad();
+      q_loss.backward();
+      critic_norms.push_back(
+          torch::nn::utils::clip_grad_norm_(critic->parameters(), c.max_grad_norm));
+      critic_opt->step();
+      if (rl::td3_actor_step(step, c.policy_delay)) {
+        auto pre = actor->net->forward(b.obs);
+        auto actor_loss =
+            rl::td3_actor_loss(critic->forward(b.obs, torch::tanh(pre)).first, pre, c.preact_l2);
+        actor_opt->zero_grad();
+        actor_loss.backward();
+        actor_norms.push_back(
+          torch::nn::utils::clip_grad_norm_(actor->parameters(), c.max_grad_norm));
+        actor_opt->step();
+        rl::polyak_update(*actor, *actor_target, c.polyak);
+        rl::polyak_update(*critic, *critic_target, c.polyak);
+        actor_loss_sum += actor_loss.item<double>();
+        ++actor_steps;
+      }
+      q_loss_sum += q_loss.item<double>();
+      q_sum += q1.mean().item<double>();
+    }
+    return {q_loss_sum / n, actor_steps ? actor_loss_sum / actor_steps : 0.0, q_sum / n,
+            static_cast<double>(actor_steps)};
+  }
+
+  rl::Td3Config c;
+  std::shared_ptr<MirrorTd3Actor> actor, actor_target;
+  rl::QCritic critic, critic_target;
+  int64_t step = 0;
+  std::unique_ptr<torch::optim::Adam> actor_opt, critic_opt;
+  std::vector<double> critic_norms, actor_norms;  // the clips' norms
+};
+
+}  // namespace
+
+TEST_CASE("TD3's and DDPG's FlatAdam updates step as LibTorch's Adam with clip_grad_norm_ did",
+          "[rl][td3][ddpg][flat_adam]") {
+  for (const std::string algo : {"td3", "ddpg"}) {
+    INFO(algo);
+    // a rate that moves the weights well beyond the tolerance, a clip that binds on every
+    // critic step and some actor steps, and catch_underarm_raise's pre-tanh penalty
+    const rl::TrainConfig c = rl::parse_train_config(
+        tiny(algo, {algo + ".epochs=1", algo + ".minibatches=4", algo + ".lr=1e-3",
+                    algo + ".max_grad_norm=0.16"}),
+        "tiny");
+    REQUIRE(c.td3.preact_l2 > 0);
+    const int64_t N = 8, D = 5, A = 3;
+    torch::manual_seed(3);
+    auto alg = rl::make_algorithm(algo, c, D, A, N, torch::Device(torch::kCPU));
+    // three steps of every slot into the learner's replay buffer and an identical one
+    rl::ReplayBuffer replay(c.td3.replay_size, D, A, torch::Device(torch::kCPU));
+    auto obs = torch::randn({N, D});
+    for (int t = 0; t < 3; ++t) {
+      const auto a = alg->act(obs);
+      rl::Transition tr;
+      tr.obs = torch::randn({N, D});
+      tr.reward = torch::randn({N});
+      // slot 1's episode ends by itself (terminal), slot 2's at its time limit (bootstrapped)
+      tr.done = torch::zeros({N});
+      tr.done.narrow(0, 1, 2).fill_(1);
+      tr.final_ids = torch::tensor({int64_t(2)});
+      tr.final_obs = torch::randn({1, D});
+      alg->observe(tr);
+      replay.add(obs, a, tr, c.td3.reward_scale);
+      obs = tr.obs;
+    }
+    auto start = test::saved_state(*alg);
+    Td3Mirror mirror(c.td3, D, A, start);
+    const auto actor0 = test::param_copies(*mirror.actor);
+    const auto critic0 = test::param_copies(*mirror.critic);
+    // two updates of four gradient steps (TD3: two actor steps each), each from the same seed
+    for (int u = 0; u < 2; ++u) {
+      torch::manual_seed(100 + u);
+      const auto got = alg->update(obs);
+      torch::manual_seed(100 + u);
+      const auto want = mirror.update(replay);
+      for (size_t i = 0; i < want.size(); ++i) {
+        INFO("update " << u << ", " << alg->metric_names()[i]);
+        CHECK(got[i] == Approx(want[i]).epsilon(1e-4).margin(1e-5));
+      }
+    }
+    test::check_clips(mirror.critic_norms, mirror.actor_norms, c.td3.max_grad_norm);
+    auto after = test::saved_state(*alg);
+    MirrorTd3Actor actor(D, A, c.td3), actor_target(D, A, c.td3);
+    rl::QCritic critic(D, A, c.td3.hidden, c.td3.activation, c.td3.twin),
+        critic_target(D, A, c.td3.hidden, c.td3.activation, c.td3.twin);
+    test::load_part(after, "actor", actor);
+    test::load_part(after, "actor_target", actor_target);
+    test::load_part(after, "critic", *critic);
+    test::load_part(after, "critic_target", *critic_target);
+    CHECK(test::max_param_diff(actor, *mirror.actor) < test::kMirrorTol);
+    CHECK(test::max_param_diff(actor_target, *mirror.actor_target) < test::kMirrorTol);
+    CHECK(test::max_param_diff(*critic, *mirror.critic) < test::kMirrorTol);
+    CHECK(test::max_param_diff(*critic_target, *mirror.critic_target) < test::kMirrorTol);
+    CHECK(test::max_diff(actor0, actor.parameters()) > 100 * test::kMirrorTol);
+    CHECK(test::max_diff(critic0, critic->parameters()) > 100 * test::kMirrorTol);
   }
 }

@@ -1,11 +1,14 @@
 // rl/trpo: conjugate gradient and the line search against hand-worked cases, TRPO's step within
-// its KL bound towards better actions, and a TRPO run's checkpoints.
-#include "tests/rl/rl_fixture.h"
+// its KL bound towards better actions, a TRPO run's checkpoints, and its update with FlatAdam for
+// the critic against the same update with LibTorch's Adam.
+#include "tests/rl/mirror_fixture.h"
 
 #include "core/error.h"
 #include "core/files.h"
 #include "rl/algorithm.h"
 #include "rl/checkpoint.h"
+#include "rl/policy.h"
+#include "rl/ppo.h"
 #include "rl/trainer.h"
 #include "rl/trpo.h"
 
@@ -133,4 +136,151 @@ TEST_CASE(
     CHECK(msg.find("holds the state of algorithm ppo") != std::string::npos);
     CHECK(msg.find("trains with trpo") != std::string::npos);
   }
+}
+
+namespace {
+
+// TRPO's update (rl/trpo.cc) as it was with LibTorch's Adam and clip_grad_norm_ for the critic,
+// on a copy of the learner's actor-critic read from its checkpoint state, with the rollout the
+// learner recorded (GaussianOnPolicy: observations not normalised here, no value normalisation).
+struct TrpoMirror {
+  TrpoMirror(const rl::TrainConfig& config, int64_t D, int64_t A,
+             torch::serialize::InputArchive& root)
+      : c(config.ppo), model(D, A, config.ppo) {
+    REQUIRE_FALSE(c.obs_norm);
+    REQUIRE_FALSE(c.value_norm);
+    const rl::TrpoConfig& t = config.trpo;
+    settings = {t.max_kl, t.damping, t.cg_iters, t.backtracks, t.accept_ratio, t.step_fraction};
+    test::load_part(root, "model", *model);
+    critic_opt = std::make_unique<torch::optim::Adam>(model->critic_parameters(),
+                                                      torch::optim::AdamOptions(c.lr));
+  }
+
+  // What GaussianOnPolicy's act() and observe() record of one step: `actions` (the learner's) on
+  // `obs`, and the transition `t`.
+  void record(const torch::Tensor& obs, const torch::Tensor& actions, const rl::Transition& t) {
+    torch::NoGradGuard ng;
+    if (obs_.empty()) log_std = model->log_std().detach().clone();
+    const auto mu = model->mean(obs);
+    obs_.push_back(obs);
+    actions_.push_back(actions);
+    mu_.push_back(mu);
+    values_.push_back(model->value(obs));
+    logp_.push_back(rl::gaussian_log_prob(actions, mu, log_std));
+    rewards_.push_back(
+        t.reward.clone().index_add_(0, t.final_ids, c.gamma * model->value(t.final_obs)));
+    dones_.push_back(t.done.clone());
+  }
+
+  // policy_loss, value_loss, entropy, kl, step_fraction: TrpoAlgorithm::update's first five
+  std::vector<double> update(const torch::Tensor& last_obs) {
+    torch::Tensor last_value;
+    {
+      torch::NoGradGuard ng;
+      last_value = model->value(last_obs);
+    }
+    auto [adv, ret] = rl::gae(torch::stack(rewards_), torch::stack(values_), torch::stack(dones_),
+                              last_value, c.gamma, c.lambda);
+    const int64_t B = adv.numel();
+    const auto nobs = torch::stack(obs_).reshape({B, -1});
+    const auto actions = torch::stack(actions_).reshape({B, -1});
+    const auto logp_old = torch::stack(logp_).reshape({B});
+    const auto mu_old = torch::stack(mu_).reshape({B, -1});
+    auto advantages = adv.reshape({B});
+    advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
+    auto surrogate = [&] {
+      auto logp = rl::gaussian_log_prob(actions, model->mean(nobs), model->log_std());
+      return -(torch::exp(logp - logp_old) * advantages).mean();
+    };
+    auto mean_kl = [&] {
+      return rl::gaussian_kl(mu_old, log_std, model->mean(nobs), model->log_std()).mean();
+    };
+    const rl::NaturalStep step =
+        rl::natural_step(model->actor_parameters(), surrogate, mean_kl, settings);
+    const auto targets = ret.reshape({B});
+    const int64_t mb = B / c.minibatches;
+    double value_sum = 0;
+    int n = 0;
+    for (int epoch = 0; epoch < c.epochs; ++epoch) {
+      const auto perm = torch::randperm(B, torch::TensorOptions().dtype(torch::kLong));
+      for (int k = 0; k < c.minibatches; ++k) {
+        const auto idx = perm.narrow(0, k * mb, mb);
+        auto value_loss = (model->raw_value(nobs.index_select(0, idx)) -
+                           targets.index_select(0, idx)).pow(2).mean();
+        critic_opt->zero_grad();
+        (c.value_coef * value_loss).backward();
+        critic_norms.push_back(
+            torch::nn::utils::clip_grad_norm_(model->critic_parameters(), c.max_grad_norm));
+        critic_opt->step();
+        value_sum += value_loss.item<double>();
+        ++n;
+      }
+    }
+    for (auto* v : {&obs_, &actions_, &mu_, &values_, &logp_, &rewards_, &dones_}) v->clear();
+    return {step.loss, value_sum / n, rl::gaussian_entropy(model->log_std()).item<double>(),
+            step.kl, step.fraction};
+  }
+
+  rl::PpoConfig c;
+  rl::NaturalStepSettings settings;
+  rl::ActorCritic model;
+  std::unique_ptr<torch::optim::Adam> critic_opt;
+  std::vector<double> critic_norms;  // the clip's norms
+  torch::Tensor log_std;      // the rollout's
+  std::vector<torch::Tensor> obs_, actions_, mu_, values_, logp_, rewards_, dones_;
+};
+
+}  // namespace
+
+TEST_CASE("TRPO's critic with FlatAdam steps as LibTorch's Adam with clip_grad_norm_ did",
+          "[rl][trpo][flat_adam]") {
+  rl::TrainConfig c;
+  c.algo = "trpo";
+  c.ppo.hidden = {32};
+  c.ppo.horizon = 4;
+  c.ppo.epochs = 2;
+  c.ppo.minibatches = 2;
+  c.ppo.obs_norm = false;
+  c.ppo.lr = 1e-3;
+  c.ppo.max_grad_norm = 3.0;  // binds on some steps only
+  const int64_t N = 16, D = 4, A = 2;
+  torch::manual_seed(3);
+  auto alg = rl::make_algorithm("trpo", c, D, A, N, torch::Device(torch::kCPU));
+  auto start = test::saved_state(*alg);
+  TrpoMirror mirror(c, D, A, start);
+  std::vector<torch::Tensor> critic_start;
+  for (auto& p : mirror.model->critic_parameters()) critic_start.push_back(p.detach().clone());
+  // two updates of a rollout of 4 steps, each from the same seed
+  auto obs = torch::randn({N, D});
+  for (int u = 0; u < 2; ++u) {
+    for (int t = 0; t < c.ppo.horizon; ++t) {
+      const auto a = alg->act(obs);
+      rl::Transition tr;
+      tr.obs = torch::randn({N, D});
+      tr.reward = a.select(1, 0) + 0.1 * torch::randn({N});
+      // slot 1's episode ends by itself, slot 2's at its time limit (bootstrapped)
+      tr.done = torch::zeros({N});
+      tr.done.narrow(0, 1, 2).fill_(1);
+      tr.final_ids = torch::tensor({int64_t(2)});
+      tr.final_obs = torch::randn({1, D});
+      mirror.record(obs, a, tr);
+      alg->observe(tr);
+      obs = tr.obs;
+    }
+    torch::manual_seed(100 + u);
+    const auto got = alg->update(obs);
+    torch::manual_seed(100 + u);
+    const auto want = mirror.update(obs);
+    for (size_t i = 0; i < want.size(); ++i) {
+      INFO("update " << u << ", " << alg->metric_names()[i]);
+      CHECK(got[i] == Approx(want[i]).epsilon(1e-4).margin(1e-5));
+    }
+    CHECK(got[4] > 0);  // the policy stepped
+  }
+  test::check_clips(mirror.critic_norms, {}, c.ppo.max_grad_norm);
+  auto after = test::saved_state(*alg);
+  rl::ActorCritic model(D, A, c.ppo);
+  test::load_part(after, "model", *model);
+  CHECK(test::max_param_diff(*model, *mirror.model) < test::kMirrorTol);
+  CHECK(test::max_diff(critic_start, model->critic_parameters()) > 100 * test::kMirrorTol);
 }
