@@ -184,14 +184,14 @@ void FlatAdam::load_libtorch_adam(torch::serialize::InputArchive& archive) {
   if (stepped == 0) {
     exp_avg_.zero_();
     exp_avg_sq_.zero_();
-  } else {
-    int64_t at = 0;  // each parameter's place, as in the constructor
-    for (size_t k = 0; k < n; ++k) {
-      const int64_t len = value_views_[k].numel();
-      exp_avg_.narrow(0, at, len).copy_(avg[k].reshape({-1}));
-      exp_avg_sq_.narrow(0, at, len).copy_(avg_sq[k].reshape({-1}));
-      at += len;
-    }
+  } else {  // the flat buffers hold the parameters one after the other, in this order
+    const auto flat = [](const std::vector<torch::Tensor>& ts) {
+      std::vector<torch::Tensor> rows;
+      for (const auto& t : ts) rows.push_back(t.reshape({-1}));
+      return torch::cat(rows);
+    };
+    exp_avg_.copy_(flat(avg));
+    exp_avg_sq_.copy_(flat(avg_sq));
   }
   step_.fill_(static_cast<double>(steps));
 }

@@ -191,9 +191,6 @@ class SacAlgorithm final : public Algorithm {
       torch::NoGradGuard ng;
       log_alpha_.copy_(la);
     });
-    // the loaded parameters (new storage) back into the optimisers' flat buffers
-    actor_opt_->rebind();
-    critic_opt_->rebind();
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {

@@ -154,9 +154,6 @@ class Td3Algorithm final : public Algorithm {
       root.read("gradient_steps", s);
       steps_.copy_(s.to(torch::kCPU));
     });
-    // the loaded parameters (new storage) back into the optimisers' flat buffers
-    actor_opt_->rebind();
-    critic_opt_->rebind();
   }
 
   void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {

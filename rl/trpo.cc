@@ -187,7 +187,6 @@ class TrpoAlgorithm final : public GaussianOnPolicy {
       read_module(root, "model", *model_, path, "this run's networks");
       read_optimizer(root, "critic_optimizer", *critic_opt_);
     });
-    critic_opt_->rebind();  // the loaded critic (new storage) back into the flat buffers
   }
 
  private:
