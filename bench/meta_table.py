@@ -12,8 +12,9 @@ rows (its table reports suite means, so the score is of the means). A run folder
 eval-test-adaptN.json (bench/sweep_run.sh's SWEEP_META_ADAPT=N: N adaptation episodes, and N
 gradient steps for MAML and ProMP) is a row of its own, so that the one-episode protocol stays
 comparable. The folders may also be bench/sweep_run.sh's (SUITE-aALGO-...). Writes DIR/table.md
-and DIR/summary.json.
-Usage: bench/meta_table.py DIR"""
+and DIR/summary.json. --baselines BDIR: the random and zero-action files are read from BDIR
+(default DIR), e.g. the baselines measured once beside runs of a later lease.
+Usage: bench/meta_table.py DIR [--baselines BDIR]"""
 import csv
 import json
 import os
@@ -71,7 +72,8 @@ def normalised(ev, refs, key):
     return (sum(scores) / len(scores) if scores else None), len(scores), len(ev["per_task"])
 
 
-def main(d):
+def main(d, base=None):
+    base = base or d
     suites = ["ML1", "ML4", "ML20"]
     refs, refs_path = references()
     algos = sorted({n.split("-", 1)[1] for n in os.listdir(d)
@@ -81,10 +83,10 @@ def main(d):
     fmt = lambda v: "-" if v is None else f"{v:.3g}"
     cell = lambda n: "-" if n[0] is None else f"{n[0]:.3f} ({n[1]} of {n[2]})"
     for s in suites:
-        rnd = {p: load(os.path.join(d, f"random-{s}-{p}.json")) for p in ("train", "test")}
+        rnd = {p: load(os.path.join(base, f"random-{s}-{p}.json")) for p in ("train", "test")}
         rows.append(f"| {s} | random (ours) | {fmt(rnd['train'] and rnd['train']['mean_return'])}"
                     f" | {fmt(rnd['test'] and rnd['test']['mean_return'])} | | | | |")
-        zero = {p: load(os.path.join(d, f"zero-{s}-{p}.json")) for p in ("train", "test")}
+        zero = {p: load(os.path.join(base, f"zero-{s}-{p}.json")) for p in ("train", "test")}
         if any(zero.values()):
             zn = {p: normalised(zero[p], refs, "mean_return") for p in zero}
             rows.append(f"| {s} | zero action (ours) | "
@@ -142,4 +144,10 @@ def main(d):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    args = sys.argv[1:]
+    if len(args) not in (1, 3) or (len(args) == 3 and args[1] != "--baselines"):
+        sys.exit(__doc__.rsplit("\n", 1)[-1])
+    for folder in args[::2]:
+        if not os.path.isdir(folder):
+            sys.exit(f"meta_table: {folder} is not a folder")
+    main(args[0], args[2] if len(args) == 3 else None)

@@ -5,7 +5,8 @@ the return normalised by the registry's references (random 0, ground truth 1) of
 task id, as the registry normalises (a member labelled hand_over that plays hand_over_free takes
 hand_over_free's references, none where it has none); where the folder
 holds eval.json (bidex eval --run DIR --json), the mean action's return, success and normalised
-score beside them.
+score beside them, and under the table the mean action's mean return over the tasks, also with
+the suite's reward scales (the paper's metric).
 
 The training figures come from sampled actions. Each update's per-task mean counts once:
 metrics.csv does not keep a task's episode count.
@@ -40,15 +41,18 @@ def fmt(x, digits=2):
     return "" if x is None else f"{x:,.{digits}f}"
 
 
-def member_tasks(run):
-    """{label: task id} of the run's suite (run.json's suite, configs/suites/SUITE.yaml), or {}"""
+def members(run):
+    """({label: task id}, {label: reward scale}) of the run's suite (run.json's suite,
+    configs/suites/SUITE.yaml), or ({}, {})"""
     info = os.path.join(run, "run.json")
     suite = (json.load(open(info)).get("suite") or "") if os.path.exists(info) else ""
     path = suite if suite.endswith(".yaml") else os.path.join("configs", "suites", f"{suite}.yaml")
     if not suite or not os.path.exists(path):
-        return {}
-    doc = yaml.safe_load(open(path)) or {}
-    return {m.get("label", m["task"]): m["task"] for m in doc.get("train") or []}
+        return {}, {}
+    train = (yaml.safe_load(open(path)) or {}).get("train") or []
+    label = [m.get("label", m["task"]) for m in train]
+    return ({l: m["task"] for l, m in zip(label, train)},
+            {l: float(m.get("reward_scale", 1.0)) for l, m in zip(label, train)})
 
 
 def main():
@@ -67,7 +71,7 @@ def main():
     if not tasks:
         sys.exit(f"suite_train_table: {path} has no return_TASK columns (not a suite run)")
     refs = yaml.safe_load(open(a.references)) or {}
-    task_of = member_tasks(a.run)
+    task_of, scale_of = members(a.run)
     random, truth = section(refs, "random"), section(refs, "ground_truth")
     evaluated = {}
     eval_path = os.path.join(a.run, "eval.json")
@@ -118,6 +122,12 @@ def main():
         en = [x for x in e_norms if x is not None]
         line += f" | {fmt(mean(e_succs))} | **{fmt(mean(en))}** ({len(en)} of {len(tasks)}) |"
     print(line)
+    if evaluated:
+        rets = [num((evaluated.get(t) or {}).get("mean_return")) for t in tasks]
+        scaled = [None if r is None else r * scale_of.get(t, 1.0) for t, r in zip(tasks, rets)]
+        print()
+        print(f"The mean action's mean return over the {len(tasks)} tasks: {fmt(mean(rets))}; with "
+              f"the suite's reward scales (the paper's metric): {fmt(mean(scaled))}.")
 
 
 if __name__ == "__main__":
