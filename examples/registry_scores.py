@@ -26,7 +26,8 @@ def main(path):
 
     print(f"{'task':<22} {'age':>6} {'difficulty':<10} {'random':>10} {'ground truth':>12}")
     for tid, age, diff in db.execute(
-            "SELECT id, age_text, difficulty FROM tasks ORDER BY age_min, age_max, id"):
+            "SELECT id, age_text, difficulty FROM tasks WHERE origin != 'variant' "
+            "ORDER BY age_min, age_max, id"):  # the paper's tasks, as bidex registry list
         r, g = refs.get((tid, "random")), refs.get((tid, "ground_truth"))
         cell = lambda v: "-" if v is None else f"{v:.4g}"
         print(f"{tid:<22} {age:>6} {diff:<10} {cell(r):>10} {cell(g):>12}")

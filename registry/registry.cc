@@ -261,7 +261,8 @@ TaskRecord builtin_record(const tasks::TaskSpec& sp) {
   t.skill = sp.skill;
   t.obs_dim = sp.obs.dim();
   t.act_dim = sp.act.dim();
-  t.origin = "builtin";
+  t.origin = sp.variant_of.empty() ? "builtin" : "variant";
+  if (!sp.variant_of.empty()) t.sources["variant_of"] = sp.variant_of;
   const std::string table = sp.age.from_commented_row
                                 ? "paper source, a commented-out row of the task table"
                                 : "paper, task table";
@@ -630,7 +631,10 @@ Registry::Registry(const std::string& path) : path_(path) {
     for (int step = v; step < kVersion; ++step) sql::exec(db_, path_, kMigrations[step]);
     if (v != kVersion)
       sql::exec(db_, path_, sql::cat("PRAGMA user_version = ", std::to_string(kVersion)));
-    for (auto& e : tasks::task_registry()) upsert_task(db_, path_, builtin_record(e.spec()));
+    // the paper's tasks, and their variants (a suite's members such as hand_over_free, CI's
+    // reduced tasks) so that references and scores can name them; tasks() lists the former only
+    for (auto* list : {&tasks::task_registry(), &tasks::variant_registry()})
+      for (auto& e : *list) upsert_task(db_, path_, builtin_record(e.spec()));
     load_references(db_, path_);
     load_time_to_goal(db_, path_);
     txn.commit();
@@ -681,6 +685,7 @@ Registry::~Registry() { sqlite3_close(db_); }
 
 std::vector<TaskRecord> Registry::tasks(bool by_age) const {
   std::string q = kTaskColumns;
+  q.append("WHERE origin != 'variant' ");
   q.append(by_age ? "ORDER BY age_min, age_max, id" : "ORDER BY rowid");
   std::vector<TaskRecord> out;
   Stmt st(db_, path_, q.c_str());

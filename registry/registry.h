@@ -40,7 +40,8 @@ struct TaskRecord {
   std::string difficulty;             // easy | medium | hard
   std::string skill;
   int obs_dim = 0, act_dim = 0;
-  std::string origin;                 // "builtin" or the YAML file it was added from
+  std::string origin;                 // "builtin", "variant" (of the task in sources["variant_of"],
+                                      // e.g. MT4's hand_over_free) or the YAML file it was added from
   std::map<std::string, std::string> sources;  // fact (age, difficulty, ...) -> where it comes from
 };
 
@@ -148,9 +149,10 @@ class Registry {
   Registry& operator=(const Registry&) = delete;
   const std::string& path() const { return path_; }
 
-  // Every registered task: by age (age_min, then age_max, then id), else in registration order
-  // (the built-in tasks in the paper's order first).
+  // Every registered task but the variants: by age (age_min, then age_max, then id), else in
+  // registration order (the built-in tasks in the paper's order first).
   std::vector<TaskRecord> tasks(bool by_age) const;
+  // Any registered task, a variant too.
   std::optional<TaskRecord> task(const std::string& id) const;
   // Registers a task; an id already registered is an Error naming it.
   void add_task(const TaskRecord& t);

@@ -453,8 +453,9 @@ TEST_CASE("bidex registry evals and report age --eval: scores before and after a
   // task, age, difficulty, run, return, random, ground truth, normalised
   CHECK(has_row(r.out, {"catch_abreast", "9-10", "easy", "1", "33.4", "3.4", "43.4", "0.750"}));
   CHECK(has_row(r.out, {"catch_underarm", "48", "hard", "1", "9.8", "1.8", "17.8", "0.500"}));
-  CHECK(has_row(r.out, {"hand_over", "?", "?", "1", "12", "-", "-", "-"}));
-  check_order(r.out, {"catch_abreast", "catch_underarm", "hand_over"});
+  // hand_over_free, a registered variant: hand_over's age, its ground truth, no random score here
+  CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "1", "12", "-", "268.1", "-"}));
+  check_order(r.out, {"catch_abreast", "hand_over", "catch_underarm"});
   CHECK(has_text(r.out, "left out of the plot (no normalised score): hand_over"));
   CHECK(has_text(r.out, "plot (2 of 3 tasks)"));
   REQUIRE(file_exists(out));

@@ -138,11 +138,25 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
     CHECK(reg.task("catch_underarm")->sources.at("age") == "paper, task table");
     CHECK(reg.task("two_catch_underarm")->age_min == 216);
     CHECK(reg.task("grasp_and_place")->obs_dim == 425);
-    CHECK_FALSE(reg.task("catch_underarm_raise"));  // variants are not registered
+    // variants are registered, with their task, but not listed among the paper's tasks
+    for (const char* id : {"catch_underarm_raise", "hand_over_free"}) {
+      INFO(id);
+      const auto v = reg.task(id);
+      REQUIRE(v);
+      CHECK(v->origin == "variant");
+      CHECK(v->sources.at("variant_of") == (std::string(id) == "hand_over_free" ? "hand_over"
+                                                                               : "catch_underarm"));
+      for (auto& t : reg.tasks(true)) CHECK(t.id != id);
+    }
 
-    // the fourteen ground truths and the twenty measured random scores
+    // the twenty ground truths and the twenty measured random scores, and hand_over_free's two
+    // (MT4's and ML4's variant, so that their normalised means cover all four members)
     const auto refs = reg.references();
-    CHECK(refs.size() == kGroundTruth.size() + 20);
+    CHECK(refs.size() == kGroundTruth.size() + 20 + 2);
+    CHECK(reg.reference("hand_over_free", "ground_truth")->value == Approx(268.149));
+    CHECK(reg.reference("hand_over_free", "ground_truth")->source.find(
+              "suites-h200x4/hand_over_free/eval.json") != std::string::npos);
+    CHECK(reg.reference("hand_over_free", "random")->value == Approx(3.25619));
     for (auto& [task, value] : kGroundTruth) {
       INFO(task);
       const auto r = reg.reference(task, "ground_truth");
@@ -204,11 +218,12 @@ TEST_CASE("a new registry: schema version, WAL mode, the built-in tasks by age w
   CHECK(registry::schema_version() == 5);
   CHECK(raw.value("PRAGMA user_version") == "5");
   CHECK(raw.value("PRAGMA journal_mode") == "wal");
-  CHECK(raw.value("SELECT count(*) FROM tasks") == "20");
-  CHECK(raw.value("SELECT count(*) FROM task_sources") == "140");
-  // the shipped ground truths and 20 random scores
+  // the twenty tasks and two variants (catch_underarm_raise, hand_over_free: a variant_of source)
+  CHECK(raw.value("SELECT count(*) FROM tasks") == "22");
+  CHECK(raw.value("SELECT count(*) FROM task_sources") == "156");
+  // the shipped ground truths and 20 random scores, and hand_over_free's two
   CHECK(raw.value("SELECT count(*) FROM reference_scores") ==
-        std::to_string(kGroundTruth.size() + 20));
+        std::to_string(kGroundTruth.size() + 20 + 2));
   CHECK(raw.value("SELECT count(*) FROM suites") ==
         std::to_string(taskpack::known_suites().size()));
   CHECK(raw.value("SELECT count(*) FROM suite_members WHERE suite = 'ML20'") == "20");
@@ -224,7 +239,7 @@ TEST_CASE("opening again changes nothing and keeps a reference set by hand", "[r
   }
   Registry reg(path);
   CHECK(reg.tasks(false).size() == 20);
-  CHECK(reg.references().size() == kGroundTruth.size() + 20);
+  CHECK(reg.references().size() == kGroundTruth.size() + 20 + 2);  // + hand_over_free's
   CHECK(reg.reference("hand_over", "ground_truth")->value == 25.0);
   CHECK(reg.reference("hand_over", "ground_truth")->source == "my own run");
   CHECK(reg.reference("hand_over", "random")->value == 0.5);
@@ -391,8 +406,8 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   reg.set_reference({"pen", "random", 10.0, "test"});
   reg.set_reference({"pen", "ground_truth", -10.0, "test"});
   CHECK(*reg.normalised("pen", 0.0) == Approx(0.5));
-  // missing references: the file gives every paper task both; a task added by hand (variants
-  // such as hand_over_free are not registry tasks) gets a random score only here
+  // missing references: the file gives every paper task both (and hand_over_free, a variant);
+  // a task added by hand gets a random score only here
   reg.add_task(added_task("added_task", 14, 14));
   reg.set_reference({"added_task", "random", 1.0, "test"});
   CHECK_FALSE(reg.normalised("added_task", 10.0));  // random only
@@ -403,12 +418,13 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   CHECK_FALSE(reg.normalised("scissors", 10.0));
 
   // a meta-RL evaluation's entries: each before and after, and the means over the entries
-  // whose task has both references (hand_over and pen here; hand_over_free, a variant, has none)
+  // whose task has both references (hand_over and pen here; catch_underarm_raise, a variant,
+  // has none)
   std::vector<AdaptScore> scores(3);
   scores[0].task = "hand_over";
   scores[0].return_before = 2.0;   // 0
   scores[0].return_after = 135.5;  // 0.5
-  scores[1].task = "hand_over_free";
+  scores[1].task = "catch_underarm_raise";
   scores[1].return_before = 1.0;
   scores[1].return_after = 2.0;
   scores[2].task = "pen";
@@ -626,8 +642,8 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
     CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(269.0));
-    // the shipped ground truths and 19 random
-    CHECK(reg.references().size() == 2 + kGroundTruth.size() + 19);
+    // the shipped ground truths and 19 random, and hand_over_free's two
+    CHECK(reg.references().size() == 2 + kGroundTruth.size() + 19 + 2);
     // the new tables work, also for the old runs
     registry::RunRecord done = runs[1];
     done.status = "finished";
@@ -1088,13 +1104,15 @@ TEST_CASE("the age report of an evaluation: the scores after adaptation, normali
   const auto rep = registry::age_report_evaluation(reg, id);
   CHECK(rep.source == "evaluation 1 of run 2 (promp on ML4, split train, after 1 adaptation "
                       "episode and 1 gradient step)");
-  // by age: catch_abreast (9-10), catch_underarm (48), then hand_over_free (not registered)
+  // by age: catch_abreast and hand_over_free (a registered variant, hand_over's 9-10 months; ids
+  // in order), then catch_underarm (48)
   REQUIRE(rep.rows.size() == 3);
   CHECK(rep.rows[0].label == "catch_abreast");
-  CHECK(rep.rows[1].label == "catch_underarm");
-  CHECK(rep.rows[2].label == "hand_over");
-  CHECK(rep.rows[2].task == "hand_over_free");
-  CHECK_FALSE(rep.rows[2].registered);
+  CHECK(rep.rows[1].label == "hand_over");
+  CHECK(rep.rows[1].task == "hand_over_free");
+  CHECK(rep.rows[1].registered);
+  CHECK(rep.rows[1].age_text == "9-10");
+  CHECK(rep.rows[2].label == "catch_underarm");
   for (auto& r : rep.rows) CHECK(r.run == run);
   // after adaptation, by hand: (33.4 - 3.4) / (43.4 - 3.4) = 0.75; (9.8 - 1.8) / 16 = 0.5
   CHECK(*rep.rows[0].mean_return == 33.4);
@@ -1103,12 +1121,12 @@ TEST_CASE("the age report of an evaluation: the scores after adaptation, normali
   CHECK(*rep.rows[0].ground_truth == Approx(43.4));
   CHECK(*rep.rows[0].normalised == Approx(0.75));
   CHECK(rep.rows[0].age_text == "9-10");
-  CHECK(*rep.rows[1].mean_return == 9.8);
-  CHECK(*rep.rows[1].success == 0.25);
-  CHECK(*rep.rows[1].normalised == Approx(0.5));
-  CHECK(*rep.rows[2].mean_return == 12.0);
-  CHECK_FALSE(rep.rows[2].success);
-  CHECK_FALSE(rep.rows[2].normalised);
+  CHECK(*rep.rows[2].mean_return == 9.8);
+  CHECK(*rep.rows[2].success == 0.25);
+  CHECK(*rep.rows[2].normalised == Approx(0.5));
+  CHECK(*rep.rows[1].mean_return == 12.0);
+  CHECK_FALSE(rep.rows[1].success);
+  CHECK_FALSE(rep.rows[1].normalised);  // a ground truth, but no random score here
   CHECK(registry::unplotted(rep) == std::vector<std::string>{"hand_over"});
 
   // the test split, adapted in memory only (0 gradient steps): (7.1 - 0.1) / 14 = 0.5
