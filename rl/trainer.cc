@@ -26,6 +26,7 @@
 #include "rl/checkpoint.h"
 #include "rl/collector.h"
 #include "rl/metrics.h"
+#include "rl/recent_scores.h"
 #include "rl/stage_timer.h"
 #include "sim/batch.h"
 #include "sim/tensor.h"
@@ -162,38 +163,6 @@ std::string target_version(const taskpack::Pack& pack) {
     v.append(g ? "," : "").append(pack.task_spec(g).versioned_id());
   return v + "]";
 }
-
-// Episode statistics of the last few updates, per pack entry: the run's final score.
-class RecentScores {
- public:
-  explicit RecentScores(int updates) : keep_(updates) {}
-  void add(const std::vector<tasks::EpisodeStats>& es) {
-    window_.push_back(es);
-    if (static_cast<int>(window_.size()) > keep_) window_.erase(window_.begin());
-  }
-  std::vector<EntryScore> scores(const taskpack::Pack& pack) const {
-    std::vector<EntryScore> out;
-    for (int g = 0; g < pack.ngroups(); ++g) {
-      EntryScore e;
-      e.label = pack.label(g);
-      e.task = pack.entry(g).task;
-      double ret = 0, succ = 0;
-      for (auto& w : window_) {
-        e.episodes += w[g].episodes;
-        ret += w[g].return_sum;
-        succ += static_cast<double>(w[g].successes);
-      }
-      e.mean_return = e.episodes > 0 ? ret / e.episodes : NAN;
-      e.success = e.episodes > 0 ? succ / e.episodes : NAN;
-      out.push_back(e);
-    }
-    return out;
-  }
-
- private:
-  int keep_;
-  std::vector<std::vector<tasks::EpisodeStats>> window_;
-};
 
 // Everything one training process holds.
 struct Session {
@@ -556,7 +525,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   if (list_checkpoints(s.dir).empty() || s.last_checkpoint != checkpoint_path(s.dir, s.update))
     s.save();
   log.plot(title);
-  res.scores = recent.scores(env);
+  for (int g = 0; g < env.ngroups(); ++g)
+    res.scores.push_back(recent.score(g, env.label(g), env.entry(g).task));
   res.updates = s.update;
   res.steps = s.steps;
   res.interrupted = stopped;

@@ -82,7 +82,8 @@ struct TrainResult {
   std::string checkpoint;         // the newest checkpoint written
   std::string sim_device;         // where the simulation stepped (cpu, cuda, warp-cpu)
   std::string room_advice;        // GPU: which physics settings to raise, if worlds overflowed
-  // Per task (a suite run: per entry), the episodes that ended in the last 10 updates.
+  // Per task (a suite run: per entry), the episodes that ended in its last 10 updates in which
+  // any ended (rl/recent_scores.h).
   std::vector<EntryScore> scores;
 };
 

@@ -11,6 +11,7 @@
 #include "registry/registry.h"
 #include "rl/checkpoint.h"
 #include "rl/metrics.h"
+#include "rl/recent_scores.h"
 #include "rl/trainer.h"
 #include "taskpack/pack.h"
 #include "taskpack/suite.h"
@@ -253,4 +254,36 @@ TEST_CASE("mttrpo trains TRPO on a suite's pack and evaluates per task", "[rl][m
   rl::LoadedPolicy p(dir);
   const auto e = rl::evaluate(p, 2, 4, 1);
   CHECK(e.per_task.size() == 4);
+}
+
+TEST_CASE("a run's final score per entry counts its last updates in which episodes ended, "
+          "so that an entry whose episodes end together far apart keeps a score") {
+  rl::RecentScores recent(2);
+  auto stats = [](int64_t episodes, double return_sum, int64_t successes) {
+    tasks::EpisodeStats e;
+    e.episodes = episodes;
+    e.return_sum = return_sum;
+    e.successes = successes;
+    return e;
+  };
+  // entry 0 ends episodes every update; entry 1 only in the first update of five
+  recent.add({stats(2, 2.0, 0), stats(4, 40.0, 2)});
+  for (int k = 0; k < 4; ++k) recent.add({stats(1, 10.0 * (k + 1), 1), {}});
+  const auto a = recent.score(0, "a", "catch_underarm");
+  CHECK(a.label == "a");
+  CHECK(a.task == "catch_underarm");
+  CHECK(a.episodes == 2);                  // the last two updates only: 30 and 40
+  CHECK(a.mean_return == Approx(35.0));
+  CHECK(a.success == Approx(1.0));
+  const auto b = recent.score(1, "b", "switch");
+  CHECK(b.episodes == 4);                  // kept although four updates without episodes came after
+  CHECK(b.mean_return == Approx(10.0));
+  CHECK(b.success == Approx(0.5));
+  // an entry that never ended an episode has no score
+  rl::RecentScores none(3);
+  none.add({{}, stats(1, 1.0, 0)});
+  const auto c = none.score(0, "c", "hand_over");
+  CHECK(c.episodes == 0);
+  CHECK(std::isnan(c.mean_return));
+  CHECK(std::isnan(c.success));
 }
