@@ -8,9 +8,13 @@ holds eval.json (bidex eval --run DIR --json), the mean action's return, success
 score beside them, and under the table the mean action's mean return over the tasks, also with
 the suite's reward scales (the paper's metric).
 
+With --curve, below the table: the training normalised mean over the tasks in each successive
+WINDOW of slot-steps from the start (whether and how fast the run still rises).
+
 The training figures come from sampled actions. Each update's per-task mean counts once:
 metrics.csv does not keep a task's episode count.
-Usage: bench/suite_train_table.py RUN_DIR [--window 1e7] [--references configs/registry/references.yaml]
+Usage: bench/suite_train_table.py RUN_DIR [--window 1e7] [--curve]
+                                  [--references configs/registry/references.yaml]
 """
 import argparse, csv, json, math, os, sys
 
@@ -59,6 +63,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("run")
     ap.add_argument("--window", type=float, default=1e7)
+    ap.add_argument("--curve", action="store_true",
+                    help="also the normalised training mean in each window from the start")
     ap.add_argument("--references", default="configs/registry/references.yaml")
     a = ap.parse_args()
     path = os.path.join(a.run, "metrics.csv")
@@ -98,12 +104,16 @@ def main():
     def normalised(ret, lo, hi):
         return None if None in (ret, lo, hi) or hi == lo else (ret - lo) / (hi - lo)
 
+    def task_norm(t, window_rows):
+        """(mean training return, its normalised score) of task t over window_rows"""
+        ret = mean(num(r[f"return_{t}"]) for r in window_rows)
+        return ret, normalised(ret, random.get(task_of.get(t, t)), truth.get(task_of.get(t, t)))
+
     norms, succs, e_norms, e_succs = [], [], [], []
     for t in tasks:
-        ret = mean(num(r[f"return_{t}"]) for r in recent)
+        ret, norm = task_norm(t, recent)
         suc = mean(num(r.get(f"success_{t}")) for r in recent)
         lo, hi = random.get(task_of.get(t, t)), truth.get(task_of.get(t, t))
-        norm = normalised(ret, lo, hi)
         norms.append(norm)
         succs.append(suc)
         name = t if task_of.get(t, t) == t else f"{t} ({task_of[t]})"
@@ -128,6 +138,18 @@ def main():
         print()
         print(f"The mean action's mean return over the {len(tasks)} tasks: {fmt(mean(rets))}; with "
               f"the suite's reward scales (the paper's metric): {fmt(mean(scaled))}.")
+    if a.curve:
+        print()
+        print("| slot-steps | updates | training normalised mean |")
+        print("|---|---|---|")
+        lo = 0.0
+        while lo < end:
+            w = [r for r in rows if lo <= float(r["steps"]) < lo + a.window]
+            n = [x for x in (task_norm(t, w)[1] for t in tasks) if x is not None]
+            if w:
+                print(f"| {lo / 1e6:g}-{(lo + a.window) / 1e6:g}M | {len(w)} | {fmt(mean(n))} "
+                      f"({len(n)} of {len(tasks)}) |")
+            lo += a.window
 
 
 if __name__ == "__main__":

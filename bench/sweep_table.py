@@ -3,7 +3,8 @@
 prints one markdown table and writes OUT/sweep-curves.svg and .png (rsvg-convert), the
 learning curves in a grid, each with the original's published final, the random policy's
 return and the mean action's evaluation. With several folders (one per lease), a run of a later
-folder replaces the run of the same name and slot count in an earlier one.
+folder replaces the run of the same name and slot count in an earlier one. A suite's run in a
+folder (MT4, MT20: bench/suite_train_table.py) is left out.
 Usage: bench/sweep_table.py DIR [DIR...] [--out OUT (default: the last DIR)]
                             [--references configs/registry/references.yaml]"""
 import argparse, json, os, shutil, subprocess, sys
@@ -165,6 +166,8 @@ def main():
         if not os.path.exists(path):
             sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
         for t in json.load(open(path))["runs"]:
+            if os.path.exists(os.path.join("configs", "suites", t["task"] + ".yaml")):
+                continue  # a suite's multi-task run (bench/suite_train_table.py tables it)
             t = dict(t, dir=d)
             byname[(t["run"], slots(t))] = t  # a later lease's run replaces it
     runs = list(byname.values())
