@@ -11,6 +11,8 @@
 #include <mujoco/mujoco.h>
 
 #include "core/files.h"
+#include "tasks/env.h"
+#include "tasks/registry.h"
 #include "tests/fixture.h"
 #include "tests/paper_table.h"
 #include "tests/run_command.h"
@@ -170,4 +172,53 @@ TEST_CASE("bidex model reports bad input with the file, key and reason", "[apps]
     CHECK(r.out.find("middle") != std::string::npos);
     CHECK_FALSE(std::filesystem::exists(dir.file("x.xml")));
   }
+}
+
+TEST_CASE("bidex model --task writes the task's whole scene as its environment compiles it",
+          "[apps][model]") {
+  TempDir dir;
+  for (const char* id : {"door_open_inward", "pour_water"}) {
+    INFO(id);
+    const std::string xml = dir.file(std::string(id) + ".xml");
+    CommandResult r = run_command(bidex_cmd(std::string("model --task ") + id + " --out " + quote(xml)));
+    INFO(r.out);
+    REQUIRE(r.rc == 0);
+    CHECK(r.out.find(std::string("the scene of ") + id) != std::string::npos);
+    LoadedModel disk(xml, false);
+    INFO("mj_loadXML: " << disk.error);
+    REQUIRE(disk.m != nullptr);
+    // the same scene as the task's environment builds in memory: objects, tables, goal markers
+    std::unique_ptr<bidex::tasks::Task> task = bidex::tasks::make_task(id);
+    std::unique_ptr<bidex::sim::SimModel> mem = bidex::tasks::build_task_model(*task, "", "");
+    const mjModel* m = mem->mj();
+    REQUIRE(disk.m->nbody == m->nbody);
+    REQUIRE(disk.m->ngeom == m->ngeom);
+    CHECK(disk.m->nq == m->nq);
+    CHECK(disk.m->nu == m->nu);
+    CHECK(disk.m->nmocap == m->nmocap);
+    CHECK(bidex::test::same_bits(disk.m->body_pos, m->body_pos, 3 * m->nbody));
+    CHECK(bidex::test::same_bits(disk.m->geom_size, m->geom_size, 3 * m->ngeom));
+    CHECK(bidex::test::same_bits(disk.m->qpos0, m->qpos0, m->nq));
+    CHECK(disk.m->nbody > bidex::test::fixed_hands_model().mj()->nbody);  // more than the hands
+  }
+}
+
+TEST_CASE("bidex model --task refuses an unknown task and the hand-only options", "[apps][model]") {
+  TempDir dir;
+  const std::string xml = dir.file("x.xml");
+  CommandResult r = run_command(bidex_cmd("model --task pour_tea --out " + quote(xml)));
+  INFO(r.out);
+  CHECK(r.rc == 2);
+  CHECK(r.out.find("pour_tea") != std::string::npos);
+  CHECK(r.out.find("pour_water") != std::string::npos);  // the known ids are listed
+  CHECK_FALSE(std::filesystem::exists(xml));
+  r = run_command(bidex_cmd("model --task pen --hand left --out " + quote(xml)));
+  INFO(r.out);
+  CHECK(r.rc != 0);
+  CHECK(r.out.find("--hand excludes --task") != std::string::npos);
+  r = run_command(bidex_cmd("model --gpu --out " + quote(xml)));
+  INFO(r.out);
+  CHECK(r.rc != 0);
+  CHECK(r.out.find("--gpu requires --task") != std::string::npos);
+  CHECK_FALSE(std::filesystem::exists(xml));
 }
