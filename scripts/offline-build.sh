@@ -5,7 +5,7 @@
 #
 #   scripts/offline-build.sh bundle [DEPS]          # where apt works: the .debs and the wheel (default .deps/)
 #   scripts/offline-build.sh bundle-gpu [DEPS]      # the same plus the GPU backend's wheels
-#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts of 38 MiB (default .parts/)
+#   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts that fit beside the tree (default .parts/)
 #   scripts/offline-build.sh join  [PARTS] [DEPS]   # on the target: the parts back into DEPS
 #   scripts/offline-build.sh build  [DEPS] [BUILD]  # on the target: unpack, configure, build
 #
@@ -33,7 +33,17 @@ debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen
       libhdf5-dev libhdf5-103-1 libsz2 libaec0 libssl-dev libssl3)
 
 gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
-part_size=${BIDEX_PART_SIZE:-38M}  # MiB: a part and the tracked tree (21 MiB in Nov 2026) under a transfer's 64 MiB
+# A part's size: $BIDEX_PART_SIZE, else what fits beside the tracked tree in a transfer of 64 MiB
+# with 6 MiB to spare (the device tool refused a 27 MiB part beside a tree of 35.5 MiB, and took
+# 27 MiB beside 33.7 MiB: it counts more than the files' bytes), at least 4 MiB.
+default_part_size() {
+  local tree
+  tree=$(git ls-files -z 2>/dev/null | du -cb --files0-from=- 2>/dev/null | tail -n 1 | cut -f1)
+  [[ -n $tree ]] || { echo 38M; return; }  # not a git checkout
+  local mib=$(( (64 * 1048576 - tree) / 1048576 - 6 ))
+  (( mib >= 4 )) || mib=4
+  echo "${mib}M"
+}
 
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
@@ -55,6 +65,7 @@ case "$mode" in
     echo "$mode: ${#debs[@]} packages and the wheels for Python $py in $deps; take that folder to the target machine"
     ;;
   split)
+    part_size=${BIDEX_PART_SIZE:-$(default_part_size)}
     parts=$(realpath -m "${3:-.parts}")
     mkdir -p "$parts"
     rm -f "$parts"/bidex-deps.tar.part*
