@@ -420,7 +420,7 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
     throw Error("eval: --task, --suite, --task-config and --set-reference go with --random");
   const std::string split = o.split.empty() ? "test" : o.split;
   const rl::MetaEvalResult r = rl::evaluate_meta(policy, split, o.episodes, o.adapt_episodes,
-                                                 o.adapt_steps, o.seed, o.threads);
+                                                 o.adapt_steps, o.seed, o.threads, true);
   const auto& c = policy.config();
   std::printf("%s, %s split, checkpoint %s (update %lld): %d episode(s) per task; adaptation "
               "from %d episode(s) per slot, %d step(s)\n",
@@ -623,8 +623,8 @@ void add_eval_command(CLI::App& app) {
         throw Error("eval: --split picks a suite's split: give --suite (or --run of a meta-RL "
                     "run)");
       const std::string split = o->split.empty() ? "train" : o->split;
-      r = o->random ? rl::evaluate_random(c, o->episodes, o->seed, o->threads, split)
-                    : rl::evaluate_zero(c, o->episodes, o->seed, o->threads, split);
+      r = o->random ? rl::evaluate_random(c, o->episodes, o->seed, o->threads, split, true)
+                    : rl::evaluate_zero(c, o->episodes, o->seed, o->threads, split, true);
       target = c.target();
       what = target + ", " + label;
     } else {
@@ -641,7 +641,7 @@ void add_eval_command(CLI::App& app) {
         return;
       }
       if (o->no_registry) throw Error("eval: --no-registry goes with meta-RL runs (--split)");
-      r = rl::evaluate(policy, o->episodes, o->seed, o->threads, o->task_config);
+      r = rl::evaluate(policy, o->episodes, o->seed, o->threads, o->task_config, true);
       target = policy.config().target();
       what = target;
       if (!o->task_config.empty()) what += " under " + o->task_config;

@@ -759,7 +759,7 @@ void set_policy_threads(int threads) {
 }
 
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads,
-                    const std::string& task_config) {
+                    const std::string& task_config, bool progress) {
   TrainConfig c = policy.config();
   if (!task_config.empty()) {
     if (!c.suite.empty())
@@ -770,11 +770,11 @@ EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threa
   return evaluate_actions(c, episodes, seed, threads, [&](const taskpack::TaskPack& env) {
     policy.check_fits(env, c.target() + " now");
     return [&policy](const float* obs, int n, float* act) { policy.act(obs, n, act); };
-  });
+  }, "train", progress);
 }
 
 EvalResult evaluate_random(const TrainConfig& c, int episodes, uint64_t seed, int threads,
-                           const std::string& split) {
+                           const std::string& split, bool progress) {
   std::mt19937_64 rng(seed ^ 0x5DEECE66Dull);
   auto make = [&rng](const taskpack::TaskPack& env) -> Actor {
     const int A = env.act_dim();
@@ -783,20 +783,21 @@ EvalResult evaluate_random(const TrainConfig& c, int episodes, uint64_t seed, in
         act[i] = static_cast<float>(sim::uniform(rng, -1, 1));
     };
   };
-  return evaluate_actions(c, episodes, seed, threads, make, split);
+  return evaluate_actions(c, episodes, seed, threads, make, split, progress);
 }
 
 EvalResult evaluate_zero(const TrainConfig& c, int episodes, uint64_t seed, int threads,
-                         const std::string& split) {
+                         const std::string& split, bool progress) {
   auto make = [](const taskpack::TaskPack& env) -> Actor {
     const int A = env.act_dim();
     return [A](const float*, int n, float* act) { std::fill_n(act, int64_t(n) * A, 0.0f); };
   };
-  return evaluate_actions(c, episodes, seed, threads, make, split);
+  return evaluate_actions(c, episodes, seed, threads, make, split, progress);
 }
 
 EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, int threads,
-                            const ActorFactory& make_actor, const std::string& split) {
+                            const ActorFactory& make_actor, const std::string& split,
+                            bool progress) {
   taskpack::TaskPack env(eval_pack(c, split, episodes, false), run_pack_options(c, seed, threads));
   const Actor actor = make_actor(env);
   env.reset();
@@ -807,7 +808,10 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
   std::vector<uint8_t> finished(n, 0), succ(n, 0);
   int left = n;
   EvalResult r;
+  std::optional<Progress> bar;
+  if (progress) bar.emplace("eval " + c.target(), n, "episodes");
   while (left > 0) {
+    if (bar) bar->update(n - left);
     actor(env.obs.data(), n, act.data());
     env.step(act);
     for (int s = 0; s < n; ++s) {
@@ -825,6 +829,10 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
         --left;
       }
     }
+  }
+  if (bar) {
+    bar->update(n);
+    bar->finish();
   }
   // per entry, then the mean over entries (one entry: over its episodes)
   double mr = 0, ml = 0, ms = 0, sd = 0;
@@ -859,7 +867,8 @@ EvalResult evaluate_actions(const TrainConfig& c, int episodes, uint64_t seed, i
 }
 
 MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int episodes,
-                             int adapt_episodes, int adapt_steps, uint64_t seed, int threads) {
+                             int adapt_episodes, int adapt_steps, uint64_t seed, int threads,
+                             bool progress) {
   const TrainConfig& c = policy.config();
   Adaptive* adapt = policy.adaptive();
   if (!adapt)
@@ -886,6 +895,12 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
   r.split = split;
   r.adapt_episodes = adapt_episodes;
   r.adapt_steps = adapt->takes_steps() ? adapt_steps : 0;  // RL^2: none, whatever was asked
+  // every slot's episodes of the three phases: one before, the adaptation's, one after
+  std::optional<Progress> bar;
+  int64_t finished = 0;
+  if (progress)
+    bar.emplace("eval " + c.target() + " (" + split + ")", int64_t(n) * (adapt_episodes + 2),
+                "episodes");
   // Runs every slot from a reset until it has finished `count` episodes; returns each slot's
   // first episode's unscaled return and success.
   auto phase = [&](bool explore, int count, std::vector<double>* ret, std::vector<uint8_t>* succ) {
@@ -912,12 +927,14 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
           (*succ)[s] = env.success[s];
         }
         acc[s] = 0;
+        ++finished;
         if (--left[s] == 0) {
           k[s] = 0;
           --busy;
         }
       }
       obs = t.obs;
+      if (bar) bar->update(finished);
     }
   };
   std::vector<double> before, after, unused;
@@ -928,6 +945,7 @@ MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int
   phase(true, adapt_episodes, &unused, &unused_s);
   adapt->adapt(adapt_steps);
   phase(false, 1, &after, &sa);
+  if (bar) bar->finish();
   for (int g = 0; g < env.ngroups(); ++g) {
     AdaptScore a;
     a.label = env.label(g);

@@ -156,28 +156,29 @@ struct EvalResult {
 // Runs `episodes` slots for one episode each with the policy's mean action (a suite run:
 // `episodes` per task of its train split). `task_config`, for a task run: another YAML of the
 // run's task to play (e.g. the task's own after a run that trained under a curriculum); empty:
-// the run's own.
+// the run's own. `progress`: a progress bar of the finished episodes on stderr (the commands').
 EvalResult evaluate(LoadedPolicy& policy, int episodes, uint64_t seed, int threads,
-                    const std::string& task_config = "");
+                    const std::string& task_config = "", bool progress = false);
 
 // The same with actions uniform in [-1, 1] (a random policy, drawn from `seed`): the reference
 // "random" score of a task or suite. Only the config's task or suite (and task_config) are used.
 // `split` (train or test) picks a suite's split.
 EvalResult evaluate_random(const TrainConfig& config, int episodes, uint64_t seed, int threads,
-                           const std::string& split = "train");
+                           const std::string& split = "train", bool progress = false);
 
 // The same with every action component 0 (bidex play --policy zero): no base force or torque,
 // each joint at the target that action 0 means in its task. A baseline for tasks whose random
 // score comes from how long a random policy keeps an episode going (ML20's lift_underarm).
 EvalResult evaluate_zero(const TrainConfig& config, int episodes, uint64_t seed, int threads,
-                         const std::string& split = "train");
+                         const std::string& split = "train", bool progress = false);
 
 // The same with any actor: `make_actor` sees the pack once and returns the function that maps
 // n observation rows to n action rows.
 using Actor = std::function<void(const float* obs, int n, float* actions)>;
 using ActorFactory = std::function<Actor(const taskpack::TaskPack&)>;
 EvalResult evaluate_actions(const TrainConfig& config, int episodes, uint64_t seed, int threads,
-                            const ActorFactory& make_actor, const std::string& split = "train");
+                            const ActorFactory& make_actor, const std::string& split = "train",
+                            bool progress = false);
 
 // One task of a meta-RL evaluation: the mean return and success rate of one episode per slot
 // before adaptation (the meta-learned policy's deterministic action) and after it.
@@ -201,8 +202,10 @@ struct MetaEvalResult {
 // episodes of the sampled policy per slot are what it adapts from, with `adapt_steps` gradient
 // steps per task (MAML, ProMP; RL^2 adapts in its memory over these episodes); (3) one episode of
 // the adapted policy's deterministic action scores "after". A run whose algorithm does not adapt,
-// an unknown split or a suite without it is an Error naming it.
+// an unknown split or a suite without it is an Error naming it. `progress`: a progress bar of
+// the three phases' finished episodes on stderr.
 MetaEvalResult evaluate_meta(LoadedPolicy& policy, const std::string& split, int episodes,
-                             int adapt_episodes, int adapt_steps, uint64_t seed, int threads);
+                             int adapt_episodes, int adapt_steps, uint64_t seed, int threads,
+                             bool progress = false);
 
 }  // namespace bidex::rl

@@ -178,6 +178,9 @@ test:
   INFO(r.out);
   REQUIRE(r.rc == 0);
   CHECK_THAT(r.out, Catch::Contains("normalised (random 0, ground truth 1): "));
+  // its progress on stderr: 8 slots (2 entries x 2 goals x 2 episodes), each through the
+  // episode before adaptation, one adaptation episode and the one after
+  CHECK_THAT(r.out, Catch::Contains(" (test) [############################] 100% 24/24 episodes"));
   CHECK_THAT(r.out, Catch::Contains("the mean of 1 of 2 entries (the others' tasks lack a "
                                     "reference"));
   auto j = nlohmann::json::parse(read_file(json));

@@ -187,6 +187,9 @@ TEST_CASE("bidex train and eval reject suite mistakes with clear messages", "[rl
   INFO(rs.out);
   CHECK(rs.rc == 0);
   CHECK(rs.out.find("two_catch_underarm") != std::string::npos);
+  // its progress on stderr (not a terminal here): a line at the end with every episode counted
+  CHECK(rs.out.find("eval MT4 [") != std::string::npos);
+  CHECK(rs.out.find("100% 8/8 episodes") != std::string::npos);
 }
 
 TEST_CASE("bidex eval --zero plays the zero action as a baseline beside --random", "[rl][mtppo]") {
