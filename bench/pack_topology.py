@@ -19,7 +19,7 @@ a fixed cost per Model and one per world, then the same at the count of topologi
 From the repository (mujoco and mujoco_warp come from .venv/, where scripts/setup.sh puts them):
   bench/pack_topology.py --suite MT20 [--check-steps 480] [--estimate PACK.json...] [--json OUT]
 """
-import argparse, dataclasses, glob, json, os, subprocess, sys, tempfile
+import argparse, dataclasses, datetime, glob, json, os, platform, subprocess, sys, tempfile
 
 import yaml
 
@@ -90,8 +90,19 @@ def signature(f):
     return tuple((k, f[k].tobytes()) for k in sizes + [s for s in STRUCTURE if s in f])
 
 
+def quiet_warp():
+    """Warp without its banner and module-load lines (as sim/warp_bridge.py), on its CPU device"""
+    import warp as wp
+    wp.config.quiet = True
+    wp.config.log_level = wp.LOG_WARNING
+    wp.init()
+    wp.set_device("cpu")
+    return wp
+
+
 def per_world_fields():
     """{field: True when MuJoCo Warp's Model (or Option, as opt.NAME) holds it per world}"""
+    quiet_warp()
     from mujoco_warp._src import types as mjwt
     out = {}
     for cls, prefix in ((mjwt.Model, ""), (mjwt.Option, "opt.")):
@@ -120,10 +131,7 @@ def check_group(models, steps, seed=0):
     """the group stepped as one Warp Model (CPU device) against each scene's own Model with as many
     worlds: (fields given per-world values, max over i of |qpos of packed world i - world i of
     scene i's own|, max |qpos world i - world 0| of the packed Model)"""
-    import warp as wp
-    wp.config.quiet = True
-    wp.init()
-    wp.set_device("cpu")
+    wp = quiet_warp()
     import mujoco_warp as mjw
     from mujoco_warp._src import types as mjwt
     per_world = {f.name for f in dataclasses.fields(mjwt.Model)
@@ -201,7 +209,13 @@ def main():
         groups.setdefault(signature(fields[t]), []).append(t)
     groups = sorted(groups.values(), key=lambda g: (-len(g), tasks.index(g[0])))
     per_world = per_world_fields()
-    result = {"tasks": tasks, "models_after_packing": len(groups), "groups": []}
+    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
+                            text=True).stdout.strip()
+    result = {"command": " ".join(["bench/pack_topology.py"] + sys.argv[1:]), "commit": commit,
+              "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+              "machine": f"{platform.node()}, {os.cpu_count()} cores, Warp's CPU device",
+              "mujoco": mujoco.__version__, "tasks": tasks, "models_after_packing": len(groups),
+              "groups": []}
     print(f"{len(tasks)} scenes, {len(groups)} topologies "
           f"({sum(len(g) > 1 for g in groups)} groups of two or more)\n")
     for g in groups:
