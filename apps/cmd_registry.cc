@@ -99,8 +99,9 @@ void print_run(const Registry& reg, const registry::RunRecord& r) {
                 num(reg.normalised(s.task, s.mean_return), "%.3f").c_str());
 }
 
-// One meta-RL evaluation: what was evaluated, then per task its return and success before and
-// after adaptation and its normalised score after, then the mean of those normalised scores.
+// One evaluation: what was evaluated, then per task its return and success before and after
+// adaptation (a run that does not adapt: its mean action's, the same twice) and its normalised
+// score after, then the mean of those normalised scores.
 void print_evaluation(const Registry& reg, const registry::Evaluation& e) {
   const auto run = reg.run(e.run_id);
   std::string what = "?";
@@ -127,11 +128,12 @@ void print_evaluation(const Registry& reg, const registry::Evaluation& e) {
                 num(s.success_after, "%.3f").c_str(), static_cast<long long>(s.episodes),
                 num(n.after[i], "%.3f").c_str());
   }
+  const char* after = e.adapt_episodes > 0 ? " after adaptation" : "";
   if (n.count > 0)
-    std::printf("  mean normalised score after adaptation: %.3f (%d of %zu tasks)\n",
-                *n.mean_after, n.count, e.scores.size());
+    std::printf("  mean normalised score%s: %.3f (%d of %zu tasks)\n", after, *n.mean_after,
+                n.count, e.scores.size());
   else
-    std::printf("  mean normalised score after adaptation: - (no task has both references)\n");
+    std::printf("  mean normalised score%s: - (no task has both references)\n", after);
 }
 
 }  // namespace
@@ -282,9 +284,10 @@ void add_registry_command(CLI::App& app) {
     };
     auto o = std::make_shared<Opts>();
     auto* cmd = reg->add_subcommand(
-        "evals", "Recorded meta-RL evaluations (bidex eval --run DIR --split train|test): per "
-                 "task the return and success before and after adaptation, the normalised score "
-                 "after it and their mean");
+        "evals", "Recorded evaluations (bidex eval --run DIR): per task the return and success "
+                 "before and after adaptation (meta-RL runs, --split train|test; other runs: "
+                 "their mean action's, no adaptation), the normalised score after it and their "
+                 "mean");
     add_registry_option(cmd, o->registry);
     auto* run = cmd->add_option("--run", o->run, "Only evaluations of this run (id)");
     cmd->footer("Examples:\n  bidex registry evals\n  bidex registry evals --run 12");
@@ -360,7 +363,8 @@ void add_registry_command(CLI::App& app) {
     cmd->add_option("--run", o->run, "Scores of this run (id, see bidex registry scores)");
     auto* eval = cmd->add_option(
         "--eval", o->eval,
-        "Scores after adaptation of this meta-RL evaluation (id, see bidex registry evals)");
+        "Scores of this evaluation, after adaptation for a meta-RL run's (id, see bidex registry "
+        "evals)");
     cmd->add_option("--out", o->out,
                     "SVG file (default: age_report.svg beside the registry); the table goes beside "
                     "it as .txt, and the plot as .png when rsvg-convert is installed");

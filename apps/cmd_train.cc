@@ -566,8 +566,8 @@ void add_eval_command(CLI::App& app) {
                 "With --random: store each task's mean return as its 'random' reference score in "
                 "the registry");
   cmd->add_option("--registry", o->registry,
-                  "Registry file for --set-reference (default: $BIDEX_REGISTRY, else "
-                  "runs/registry.sqlite)");
+                  "Registry file for --set-reference and a run's evaluation (default: "
+                  "$BIDEX_REGISTRY, else runs/registry.sqlite)");
   cmd->add_option("--episodes", o->episodes, "Episodes (one per parallel slot; per task for a suite)")
       ->check(CLI::Range(1, 100000))->capture_default_str();
   cmd->add_option("--seed", o->seed, "Seed of the evaluation episodes")->capture_default_str();
@@ -587,7 +587,8 @@ void add_eval_command(CLI::App& app) {
                   "Meta-RL: gradient steps of adaptation (MAML, ProMP; RL^2 adapts in memory)")
       ->check(CLI::Range(0, 1000))->capture_default_str()->needs(split);
   cmd->add_flag("--no-registry", o->no_registry,
-                "Meta-RL: do not store the evaluation in the run's registry");
+                "Do not store a run's evaluation in the registry (by default it goes to the run's "
+                "record there, for bidex registry evals and report age --eval)");
   cmd->footer("Examples:\n"
               "  bidex eval --run runs/hand_over-ppo-20261122-120000-s0 --episodes 200\n"
               "  bidex eval --run runs/re_orientation-ppo-20261127-120000-s0 "
@@ -640,7 +641,6 @@ void add_eval_command(CLI::App& app) {
         eval_meta(*o, policy);
         return;
       }
-      if (o->no_registry) throw Error("eval: --no-registry goes with meta-RL runs (--split)");
       r = rl::evaluate(policy, o->episodes, o->seed, o->threads, o->task_config, true);
       target = policy.config().target();
       what = target;
@@ -677,6 +677,42 @@ void add_eval_command(CLI::App& app) {
                     e.task.c_str(), num(e.mean_return).c_str());
       }
     }
+    // a run's mean action, recorded as an evaluation without adaptation (before = after), so
+    // that `bidex registry evals` lists it and `bidex registry report age --eval ID` draws it
+    int64_t eval_id = 0;
+    if (policy == "checkpoint" && !o->no_registry) {
+      registry::Registry reg(o->registry.empty() ? registry::default_path() : o->registry);
+      const auto run = reg.run_by_dir(absolute(o->run));
+      if (!o->task_config.empty()) {
+        std::printf("registry %s: not stored (played under --task-config, not the run's own "
+                    "task)\n", reg.path().c_str());
+      } else if (run) {
+        registry::Evaluation ev;
+        ev.run_id = run->id;
+        ev.split = "train";
+        ev.seed = o->seed;
+        ev.checkpoint = checkpoint;
+        for (auto& e : r.per_task) {
+          registry::AdaptScore a;
+          a.task = e.task;
+          a.label = e.label;
+          a.return_before = a.return_after = e.mean_return;
+          a.success_before = a.success_after = e.success;
+          a.episodes = e.episodes;
+          ev.scores.push_back(a);
+        }
+        eval_id = reg.add_evaluation(ev);
+        std::printf("registry %s: evaluation %lld of run %lld (bidex registry evals --run %lld; "
+                    "bidex registry report age --eval %lld)\n",
+                    reg.path().c_str(), static_cast<long long>(eval_id),
+                    static_cast<long long>(run->id), static_cast<long long>(run->id),
+                    static_cast<long long>(eval_id));
+      } else {
+        std::printf("registry %s: run %s is not recorded there (trained with --no-registry or "
+                    "another --registry); the evaluation is not stored\n",
+                    reg.path().c_str(), o->run.c_str());
+      }
+    }
     if (!o->json.empty()) {
       nlohmann::json per = nlohmann::json::array();
       for (auto& e : r.per_task)
@@ -698,6 +734,7 @@ void add_eval_command(CLI::App& app) {
                           {"seed", o->seed},
                           {"code_version", code_version()},
                           {"command", command_line()}};
+      if (eval_id > 0) j["registry_evaluation"] = eval_id;
       write_file_atomic(o->json, j.dump(2) + "\n");
     }
   });

@@ -96,8 +96,8 @@ AgeReport age_report(const Registry& reg, const std::string& suite, int64_t run)
   if (run > 0) {
     const auto r = reg.run(run);
     if (!r) throw Error(sql::cat(reg.path(), ": no run with id ", std::to_string(run)));
-    // a meta-RL run that has been evaluated: its newest evaluation on the test split (else on
-    // the train split), after adaptation
+    // a run that has been evaluated: its newest evaluation on the test split (else on the train
+    // split), after adaptation (a run that does not adapt: its mean action's, bidex eval --run)
     const auto evals = reg.evaluations(run);
     for (const std::string split : {"test", "train"})
       for (auto it = evals.rbegin(); it != evals.rend(); ++it)
@@ -145,6 +145,7 @@ AgeReport age_report(const Registry& reg, const std::string& suite, int64_t run)
 }
 
 std::string adaptation_text(const Evaluation& e) {
+  if (e.adapt_episodes == 0) return "the mean action, no adaptation";
   return sql::cat("after ", counted(e.adapt_episodes, "adaptation episode", "adaptation episodes"),
                   " and ", counted(e.adapt_steps, "gradient step", "gradient steps"));
 }

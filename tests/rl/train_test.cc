@@ -354,19 +354,40 @@ TEST_CASE("a run under re_orientation's curriculum logs the slots' mean level", 
 
 TEST_CASE("bidex train, eval and render --run work from the command line", "[rl][train][apps]") {
   test::TaskTempDir tmp;
-  const std::string dir = tmp.file("run");
+  const std::string dir = tmp.file("run"), reg = " --registry " + tmp.file("reg.sqlite");
   auto t = test::bidex_run("train --task hand_over -o env.slots=4 -o env.threads=1 "
                            "-o train.steps=64 -o ppo.hidden=[16] -o ppo.minibatches=2 "
-                           "-o train.device=cpu --run " + dir);
+                           "-o train.device=cpu --run " + dir + reg);
   INFO(t.out);
   REQUIRE(t.rc == 0);
   CHECK(t.out.find("2 updates, 64 slot-steps") != std::string::npos);
   auto e = test::bidex_run("eval --run " + dir + " --episodes 3 --threads 1 --json " +
-                           tmp.file("eval.json"));
+                           tmp.file("eval.json") + reg);
   INFO(e.out);
   REQUIRE(e.rc == 0);
   CHECK(e.out.find("3 episodes, mean return") != std::string::npos);
-  CHECK(read_file(tmp.file("eval.json")).find("\"success_rate\"") != std::string::npos);
+  const std::string json = read_file(tmp.file("eval.json"));
+  CHECK(json.find("\"success_rate\"") != std::string::npos);
+  // the mean action's scores go to the run's record in the registry, as an evaluation without
+  // adaptation that `registry evals` lists and `registry report age --eval` draws
+  CHECK(e.out.find(": evaluation 1 of run 1 (") != std::string::npos);
+  CHECK(json.find("\"registry_evaluation\": 1") != std::string::npos);
+  auto ev = test::bidex_run("registry evals" + reg);
+  INFO(ev.out);
+  CHECK(ev.out.find("run 1 (ppo, hand_over)  split train  the mean action, no adaptation") !=
+        std::string::npos);
+  CHECK(ev.out.find("1 evaluation in") != std::string::npos);
+  // --no-registry, and a play under another YAML of the task, store nothing
+  e = test::bidex_run("eval --run " + dir + " --episodes 2 --threads 1 --no-registry" + reg);
+  INFO(e.out);
+  REQUIRE(e.rc == 0);
+  CHECK(e.out.find(": evaluation ") == std::string::npos);
+  e = test::bidex_run("eval --run " + dir + " --episodes 2 --threads 1 --task-config " +
+                      tasks::default_task_config("hand_over") + reg);
+  INFO(e.out);
+  REQUIRE(e.rc == 0);
+  CHECK(e.out.find("not stored (played under --task-config") != std::string::npos);
+  CHECK(test::bidex_run("registry evals" + reg).out.find("1 evaluation in") != std::string::npos);
   auto h = test::bidex_run("train --help");
   CHECK(h.out.find("--resume") != std::string::npos);
   CHECK(h.out.find("-o,--override") != std::string::npos);
