@@ -50,7 +50,7 @@
 #       later `start` of RUN resumes
 # Run folders stay on the machine under $SWEEP_RUNS (default /tmp/bidex-sweep). BIDEX_COMMIT
 # names the commit in the results; BIDEX_GPU_BUILD is the build folder (default build-gpu).
-# $SWEEP_REGISTRY: a registry file the runs and meta-RL evaluations are recorded in (put it in
+# $SWEEP_REGISTRY: a registry file the runs and their evaluations are recorded in (put it in
 # OUTDIR and `pack` brings it back; `bidex registry scores|evals|report age --registry FILE` then
 # read it); unset, nothing is recorded. A meta-RL suite's run (mode: meta, e.g. ML20/apromp) is
 # evaluated on both splits before and after adaptation, $SWEEP_META_EPISODES slots a task
@@ -150,7 +150,7 @@ lane() {
     is_suite "${1%%/*}" && episodes=$suite_episodes
     ((episodes > 0)) || return 0
     args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
-                --json "$log/eval.json")
+                "${registry[@]}" --json "$log/eval.json")
     yaml=$(eval_yaml "$1")
     [[ -z $yaml ]] || args+=(--task-config "$yaml")
     echo "bidex ${args[*]}" >>"$log/commands.txt"
@@ -163,7 +163,7 @@ lane() {
       yaml=bench/sweep/$name.yaml
       [[ -n $name ]] || { name=default; yaml=tasks/$task/$task.yaml; }
       args=(eval --run "$(run_dir "$1")" --episodes "$episodes" --seed 2026 --threads 8
-            --task-config "$yaml" --json "$log/eval-$name.json")
+            --task-config "$yaml" --no-registry --json "$log/eval-$name.json")
       echo "bidex ${args[*]}" >>"$log/commands.txt"
       "$bidex" "${args[@]}" >>"$log/eval-$name.txt" 2>&1
     done
