@@ -412,6 +412,26 @@ void add_train_command(CLI::App& app) {
   });
 }
 
+// Stores an evaluation of the run in `run_dir` (its fields but run_id) as one of that run's in
+// `reg` and says so; a run the registry did not record is said, not stored. Returns its id or 0.
+int64_t store_evaluation(registry::Registry& reg, const std::string& run_dir,
+                         registry::Evaluation ev) {
+  const auto run = reg.run_by_dir(absolute(run_dir));
+  if (!run) {
+    std::printf("registry %s: run %s is not recorded there (trained with --no-registry or "
+                "another --registry); the evaluation is not stored\n",
+                reg.path().c_str(), run_dir.c_str());
+    return 0;
+  }
+  ev.run_id = run->id;
+  const int64_t id = reg.add_evaluation(ev);
+  std::printf("registry %s: evaluation %lld of run %lld (bidex registry evals --run %lld; "
+              "bidex registry report age --eval %lld)\n",
+              reg.path().c_str(), static_cast<long long>(id), static_cast<long long>(run->id),
+              static_cast<long long>(run->id), static_cast<long long>(id));
+  return id;
+}
+
 // bidex eval --run DIR --split train|test: meta-RL's protocol (rl::evaluate_meta), printed per
 // task, stored in the registry that recorded the run, and written to --json.
 template <class Opts>
@@ -487,26 +507,14 @@ void eval_meta(const Opts& o, rl::LoadedPolicy& policy) {
   }
   int64_t eval_id = 0;
   if (reg) {
-    if (auto run = reg->run_by_dir(absolute(o.run))) {
-      registry::Evaluation ev;
-      ev.run_id = run->id;
-      ev.split = split;
-      ev.adapt_episodes = r.adapt_episodes;
-      ev.adapt_steps = r.adapt_steps;
-      ev.seed = o.seed;
-      ev.checkpoint = policy.checkpoint();
-      ev.scores = scores;
-      eval_id = reg->add_evaluation(ev);
-      std::printf("registry %s: evaluation %lld of run %lld (bidex registry evals --run %lld; "
-                  "bidex registry report age --eval %lld)\n",
-                  reg->path().c_str(), static_cast<long long>(eval_id),
-                  static_cast<long long>(run->id), static_cast<long long>(run->id),
-                  static_cast<long long>(eval_id));
-    } else {
-      std::printf("registry %s: run %s is not recorded there (trained with --no-registry or "
-                  "another --registry); the evaluation is not stored\n",
-                  reg->path().c_str(), o.run.c_str());
-    }
+    registry::Evaluation ev;
+    ev.split = split;
+    ev.adapt_episodes = r.adapt_episodes;
+    ev.adapt_steps = r.adapt_steps;
+    ev.seed = o.seed;
+    ev.checkpoint = policy.checkpoint();
+    ev.scores = scores;
+    eval_id = store_evaluation(*reg, o.run, ev);
   }
   if (!o.json.empty()) {
     nlohmann::json j = {{"run", o.run},
@@ -682,13 +690,11 @@ void add_eval_command(CLI::App& app) {
     int64_t eval_id = 0;
     if (policy == "checkpoint" && !o->no_registry) {
       registry::Registry reg(o->registry.empty() ? registry::default_path() : o->registry);
-      const auto run = reg.run_by_dir(absolute(o->run));
       if (!o->task_config.empty()) {
         std::printf("registry %s: not stored (played under --task-config, not the run's own "
                     "task)\n", reg.path().c_str());
-      } else if (run) {
+      } else {
         registry::Evaluation ev;
-        ev.run_id = run->id;
         ev.split = "train";
         ev.seed = o->seed;
         ev.checkpoint = checkpoint;
@@ -701,16 +707,7 @@ void add_eval_command(CLI::App& app) {
           a.episodes = e.episodes;
           ev.scores.push_back(a);
         }
-        eval_id = reg.add_evaluation(ev);
-        std::printf("registry %s: evaluation %lld of run %lld (bidex registry evals --run %lld; "
-                    "bidex registry report age --eval %lld)\n",
-                    reg.path().c_str(), static_cast<long long>(eval_id),
-                    static_cast<long long>(run->id), static_cast<long long>(run->id),
-                    static_cast<long long>(eval_id));
-      } else {
-        std::printf("registry %s: run %s is not recorded there (trained with --no-registry or "
-                    "another --registry); the evaluation is not stored\n",
-                    reg.path().c_str(), o->run.c_str());
+        eval_id = store_evaluation(reg, o->run, ev);
       }
     }
     if (!o->json.empty()) {
