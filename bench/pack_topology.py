@@ -34,6 +34,8 @@ except ImportError:  # the pinned wheels of .venv/, beside this Python's own pac
         sys.exit("pack_topology: needs the mujoco package of .venv/ (scripts/setup.sh)")
 import numpy as np
 
+from atomic_io import write_json  # bench/atomic_io.py, beside this script
+
 # arrays that describe a scene's structure: equal in every scene of a group
 STRUCTURE = ["body_parentid", "body_mocapid", "body_jntnum", "body_dofnum", "body_geomnum",
              "body_weldid", "jnt_type", "jnt_bodyid", "dof_parentid", "geom_type", "geom_bodyid",
@@ -250,10 +252,7 @@ def main():
                                                  "predicted_over_single", "measured_over_single"),
                                                 x)) for x in rows]}
     if a.json:
-        tmp = a.json + ".tmp"
-        with open(tmp, "w") as f:
-            json.dump(result, f, indent=1)
-        os.replace(tmp, a.json)
+        write_json(a.json, result, indent=1)
 
 
 if __name__ == "__main__":

@@ -11,7 +11,6 @@ Writes OUT.json: each check's name, "passed" or the failure, the machine, date a
 """
 import argparse
 import datetime
-import json
 import os
 import subprocess
 import sys
@@ -26,6 +25,7 @@ sys.path.insert(0, os.path.join(HERE, "..", "python", "tests"))
 
 import bidex  # noqa: E402
 import test_autoreset  # noqa: E402
+from atomic_io import write_json  # noqa: E402  (bench/atomic_io.py, beside this script)
 
 # every check on the scene whose kernels the PPO example compiled (Warp caches them on disk): a
 # new scene costs minutes of kernel compilation on the GPU machine
@@ -116,10 +116,7 @@ def main():
            "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
            "commit": os.environ.get("BIDEX_COMMIT", "unknown"),
            "command": "python3 bench/python_cuda_check.py --out " + args.out}
-    tmp = args.out + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(out, f, indent=2)
-    os.replace(tmp, args.out)
+    write_json(args.out, out, indent=2)
     sys.exit(0 if all(v == "passed" for v in results.values()) else 1)
 
 

@@ -8,14 +8,14 @@ beside `bidex bench warp`'s task step on the same task and world count, in one r
 """
 import argparse
 import datetime
-import json
-import os
 import sys
 import time
 
 import torch
 
 import bidex
+
+from atomic_io import write_json  # bench/atomic_io.py, beside this script
 
 
 def main():
@@ -51,10 +51,7 @@ def main():
            "torch": torch.__version__, "slot_steps_per_s": max(rounds), "rounds": rounds,
            "seconds": a.seconds, "command": " ".join([sys.executable] + sys.argv),
            "date": datetime.datetime.now(datetime.timezone.utc).isoformat()}
-    tmp = a.out + ".tmp"
-    with open(tmp, "w") as f:
-        json.dump(out, f, indent=2)
-    os.replace(tmp, a.out)
+    write_json(a.out, out, indent=2)
 
 
 if __name__ == "__main__":

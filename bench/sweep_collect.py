@@ -7,6 +7,8 @@ Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK[/sSEED][
            committed files by today's rules, keeping its machine, commit and date)"""
 import csv, datetime, json, os, sys
 
+from atomic_io import write_json  # bench/atomic_io.py, beside this script
+
 # The original's published PPO finals: the last row of its 10-seed learning curves, about 1e8
 # environment steps (mean over 10 seeds), for the nine tasks it published curves for.
 ORIGINAL_PPO_FINAL = {
@@ -152,9 +154,10 @@ def summarise(outdir, spec):
         "eval_under": ev_named,
         "gpu_rows": summary.get("gpu_rows") if summary else None,
     }
-    json.dump({k: t[k] for k in ("task", "seed", "original_ppo_final", "reached_original",
-                                 "reached_at", "slot_steps", "wall_s", "train_fps_median")},
-              open(f"{d}/time_to_target.json", "w"), indent=2)
+    write_json(f"{d}/time_to_target.json",
+               {k: t[k] for k in ("task", "seed", "original_ppo_final", "reached_original",
+                                  "reached_at", "slot_steps", "wall_s", "train_fps_median")},
+               indent=2)
     return t
 
 
@@ -190,9 +193,7 @@ def write(outdir, machine, commit, date, specs, refreshed=None):
         **({"summarised_again": refreshed} if refreshed else {}),
         "runs": [summarise(outdir, s) for s in specs],
     }
-    tmp = os.path.join(outdir, "sweep.json.tmp")
-    json.dump(out, open(tmp, "w"), indent=2)
-    os.replace(tmp, os.path.join(outdir, "sweep.json"))
+    write_json(os.path.join(outdir, "sweep.json"), out, indent=2)
     for t in out["runs"]:
         e = t["eval"] or {}
         print(f"{t['run']:<24} {t['slot_steps'] / 1e6:6.1f}M {t['wall_s']:6.0f}s "

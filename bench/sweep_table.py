@@ -12,6 +12,7 @@ import argparse, json, os, shutil, subprocess, sys
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from atomic_io import replacing, write_text  # noqa: E402
 from sweep_collect import comparable, rows_of  # noqa: E402  (the one definition of both)
 
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"]
@@ -143,12 +144,10 @@ def figure(runs, random, out):
         svg.append(f'<text x="{ox + PW / 2}" y="{oy + PH - 4}" text-anchor="middle" fill="#444">'
                    f'{label}</text>')
     svg.append("</svg>")
-    tmp = out + ".svg.tmp"
-    open(tmp, "w").write("\n".join(svg))
-    os.replace(tmp, out + ".svg")
+    write_text(out + ".svg", "\n".join(svg))
     if shutil.which("rsvg-convert"):
-        subprocess.run(["rsvg-convert", "-b", "white", "-o", out + ".png.tmp", out + ".svg"], check=True)
-        os.replace(out + ".png.tmp", out + ".png")
+        with replacing(out + ".png") as tmp:
+            subprocess.run(["rsvg-convert", "-b", "white", "-o", tmp, out + ".svg"], check=True)
     else:
         print("rsvg-convert not found (apt-get install librsvg2-bin): wrote the SVG only",
               file=sys.stderr)

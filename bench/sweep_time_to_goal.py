@@ -22,6 +22,7 @@ import argparse, json, os, subprocess, sys
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from atomic_io import atomic_open  # noqa: E402
 from sweep_collect import ORIGINAL_PPO_FINAL, comparable, num, recent, rows_of  # noqa: E402
 
 SUCCESS_GOAL = 0.8
@@ -103,11 +104,9 @@ def main():
             f"# Command: bench/sweep_time_to_goal.py {' '.join(a.dirs)}\n")
     doc = {"source": "bidex PPO sweep (issue 36), bench/results/sweep-h100x4/README.md",
            "success_goal": SUCCESS_GOAL, "values": values}
-    tmp = a.out + ".tmp"
-    with open(tmp, "w") as fh:
+    with atomic_open(a.out) as fh:
         fh.write(head)
         yaml.safe_dump(doc, fh, sort_keys=False, width=100)
-    os.replace(tmp, a.out)
     for t, v in values.items():
         s = "-" if v["slot_steps"] is None else f"{v['slot_steps'] / 1e6:.1f}M"
         print(f"{t:<22} {v['goal']:<15} {s:>7} {v['by']:<12} trained {v['trained'] / 1e6:.1f}M  {v['run']}")
