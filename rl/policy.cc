@@ -148,4 +148,8 @@ void make_target(torch::nn::Module& src, torch::nn::Module& target) {
   for (auto& p : target.parameters()) p.set_requires_grad(false);
 }
 
+torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks) {
+  return obs.narrow(1, obs.size(1) - ntasks, ntasks).argmax(1);
+}
+
 }  // namespace bidex::rl

@@ -42,6 +42,11 @@ torch::Tensor gaussian_entropy(const torch::Tensor& log_std);
 torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_std_old,
                           const torch::Tensor& mu_new, const torch::Tensor& log_std_new);
 
+// The task of each row of a multi-task pack's observations: the column of the one-hot id, the
+// last `ntasks` columns (raw or normalised by the running mean and std: a task's own column is
+// the only one above its mean).
+torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks);
+
 // A multilayer perceptron: `hidden` layers of `activation` (elu, relu or tanh), orthogonal
 // weights with gain sqrt 2 and `out_gain` for the output layer, zero biases.
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,

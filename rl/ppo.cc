@@ -4,8 +4,10 @@
 #include <cstdio>
 #include <string>
 
+#include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/onpolicy.h"
+#include "taskpack/suite.h"
 
 #ifdef BIDEX_TORCH_CUDA
 #include <ATen/cuda/CUDAEvent.h>
@@ -54,6 +56,21 @@ std::pair<torch::Tensor, torch::Tensor> gae(const torch::Tensor& rewards,
   return {adv, adv + values};
 }
 
+torch::Tensor normalize_advantages(const torch::Tensor& adv, const torch::Tensor& groups,
+                                   int64_t ngroups) {
+  torch::NoGradGuard ng;
+  if (!groups.defined()) return (adv - adv.mean()) / (adv.std() + 1e-8);
+  // per group by index_add (no host read): count, mean, then the squared deviations from it
+  auto f = adv.options();
+  auto n = torch::zeros({ngroups}, f).index_add_(0, groups, torch::ones_like(adv));
+  auto s1 = torch::zeros({ngroups}, f).index_add_(0, groups, adv);
+  auto mean = s1 / n.clamp_min(1);
+  auto dev = adv - mean.index_select(0, groups);
+  auto s2 = torch::zeros({ngroups}, f).index_add_(0, groups, dev * dev);
+  auto std = (s2 / (n - 1).clamp_min(1)).sqrt();
+  return dev / (std.index_select(0, groups) + 1e-8);
+}
+
 void adapt_lr(const torch::Tensor& lr, const torch::Tensor& kl, double desired_kl) {
   torch::NoGradGuard ng;
   const auto k = kl.to(torch::kFloat64);  // compared in double, as a host read of it would be
@@ -91,8 +108,8 @@ struct Ppo::Graph {
 struct Ppo::Graph {};
 #endif
 
-Ppo::Ppo(ActorCritic model, const PpoConfig& config)
-    : model_(std::move(model)), c_(config), opt_(model_->parameters(), c_.lr) {}
+Ppo::Ppo(ActorCritic model, const PpoConfig& config, int64_t ntasks)
+    : model_(std::move(model)), c_(config), ntasks_(ntasks), opt_(model_->parameters(), c_.lr) {}
 
 Ppo::~Ppo() = default;
 
@@ -177,7 +194,9 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   auto advantages = adv.reshape({B});
   Rows rows{r.nobs.reshape({B, -1}), r.actions.reshape({B, -1}), r.logp.reshape({B}),
             r.mu.reshape({B, -1}),   r.log_std.detach(),           {}, returns, values_old};
-  rows.advantages = (advantages - advantages.mean()) / (advantages.std() + 1e-8);
+  rows.advantages =
+      ntasks_ > 0 ? normalize_advantages(advantages, task_ids(rows.nobs, ntasks_), ntasks_)
+                  : normalize_advantages(advantages);
   if (model_->uses_value_norm()) {
     model_->value_norm()->update(returns.unsqueeze(1));
     torch::NoGradGuard ng;
@@ -281,9 +300,9 @@ namespace {
 class PpoAlgorithm final : public GaussianOnPolicy {
  public:
   PpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
-               const torch::Device& device)
+               const torch::Device& device, int64_t ntasks)
       : GaussianOnPolicy(config.ppo, D, A, N, device) {
-    ppo_ = std::make_unique<Ppo>(model_, c_);
+    ppo_ = std::make_unique<Ppo>(model_, c_, ntasks);
   }
 
   std::vector<double> update(const torch::Tensor& obs) override {
@@ -324,7 +343,16 @@ class PpoAlgorithm final : public GaussianOnPolicy {
 
 std::unique_ptr<Algorithm> make_ppo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device) {
-  return std::make_unique<PpoAlgorithm>(config, obs_dim, act_dim, nslot, device);
+  int64_t ntasks = 0;
+  if (config.ppo.advantage_norm == "task") {
+    // the suite's pack carries a one-hot id as wide as its train split (taskpack::suite_pack)
+    ntasks = static_cast<int64_t>(taskpack::load_suite(config.suite).train.size());
+    if (ntasks < 1 || ntasks >= obs_dim)
+      throw Error("mtppo: ppo.advantage_norm task: suite " + config.suite + " has " +
+                  std::to_string(ntasks) + " train tasks for observations of " +
+                  std::to_string(obs_dim));
+  }
+  return std::make_unique<PpoAlgorithm>(config, obs_dim, act_dim, nslot, device, ntasks);
 }
 
 }  // namespace bidex::rl

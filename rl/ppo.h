@@ -50,13 +50,21 @@ torch::Tensor clipped_surrogate(const torch::Tensor& ratio, const torch::Tensor&
 // 2 desired_kl; x 1.5, at most 1e-2, where it is positive and below desired_kl / 2.
 void adapt_lr(const torch::Tensor& lr, const torch::Tensor& kl, double desired_kl);
 
+// Advantages normalised to mean 0 and standard deviation 1 (unbiased, + 1e-8): over all rows,
+// or, given each row's group in `groups` ([B] integers below `ngroups`), within each group. On
+// the device, with nothing read back; a group of one row keeps its advantage less its mean (0).
+torch::Tensor normalize_advantages(const torch::Tensor& adv,
+                                   const torch::Tensor& groups = {}, int64_t ngroups = 1);
+
 struct UpdateStats {
   double policy_loss = 0, value_loss = 0, entropy = 0, kl = 0, lr = 0, clip_fraction = 0;
 };
 
 class Ppo {
  public:
-  Ppo(ActorCritic model, const PpoConfig& config);
+  // ntasks > 0 (config.advantage_norm "task"): advantages normalised within each task of a
+  // multi-task pack, each row's task read from the last ntasks columns of its observation
+  Ppo(ActorCritic model, const PpoConfig& config, int64_t ntasks = 0);
   ~Ppo();
 
   // Runs the epochs and minibatches over `r`, `last_value` = V(obs after the rollout).
@@ -87,6 +95,7 @@ class Ppo {
 
   ActorCritic model_;
   PpoConfig c_;
+  int64_t ntasks_;  // > 0: advantages normalised per task
   FlatAdam opt_;
   StageTimer timer_;
   torch::Tensor sums_;  // policy loss, value loss, entropy, clip fraction, KL (float64)

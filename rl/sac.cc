@@ -26,10 +26,6 @@ torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& ter
                       torch::scalar_tensor(alpha, logp_next.options()), gamma);
 }
 
-torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks) {
-  return obs.narrow(1, obs.size(1) - ntasks, ntasks).argmax(1);
-}
-
 torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor& logp,
                              double target_entropy) {
   return -(log_alpha * (logp + target_entropy).detach()).mean();

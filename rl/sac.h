@@ -35,10 +35,6 @@ torch::Tensor sac_alpha_loss(const torch::Tensor& log_alpha, const torch::Tensor
 torch::Tensor tanh_gaussian_log_prob(const torch::Tensor& u, const torch::Tensor& mean,
                                      const torch::Tensor& log_std);
 
-// The task of each row of a multi-task pack's observations: the column of the one-hot id, the
-// last `ntasks` columns.
-torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks);
-
 std::unique_ptr<Algorithm> make_sac(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device);
 // Multi-task SAC on a suite's pack (config.suite): SAC with one learned temperature per task of

@@ -104,6 +104,26 @@ TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected an
   require_config_error(res({"ppo.gamma=1.5"}), "ppo.gamma", "[0, 1]", "1.5");
   require_config_error(res({"ppo.cuda_graph=sometimes"}), "ppo.cuda_graph", "true or false", "sometimes");
   require_config_error(res({"ppo.activation=swish"}), "ppo.activation", "elu", "swish");
+  // advantages per task: multi-task PPO's key only (ppo.yaml has no such default), batch or task
+  require_config_error(res({"ppo.advantage_norm=task"}), "ppo.advantage_norm", "a known key",
+                       "advantage_norm");
+  auto mt = [](std::vector<std::string> o) {
+    return [=] {
+      rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4", o);
+    };
+  };
+  require_config_error(mt({"ppo.advantage_norm=each"}), "ppo.advantage_norm", "task", "each");
+  CHECK(rl::parse_train_config(rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo",
+                                                      "MT4", {"ppo.advantage_norm=task"}),
+                               "x.yaml")
+            .ppo.advantage_norm == "task");
+  // a run config written by hand for single-task PPO cannot ask for it either
+  std::string y = rl::resolve_train_yaml(file, "ppo", "hand_over", {});
+  const auto at = y.find("\nppo:\n");
+  REQUIRE(at != std::string::npos);
+  y.insert(at + 6, "  advantage_norm: task\n");
+  require_config_error([=] { rl::parse_train_config(y, "x.yaml"); }, "ppo.advantage_norm", "mtppo",
+                       "task");
   require_config_error(res({"ppo.hidden=[]"}), "ppo.hidden", "at least one", "[]");
   require_config_error(res({"train.device=tpu"}), "train.device", "cuda", "tpu");
   require_config_error(res({"env.slots=2", "ppo.horizon=1", "ppo.minibatches=4"}),

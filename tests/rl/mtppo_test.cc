@@ -92,6 +92,30 @@ TEST_CASE("mtppo's config is strict about suites and tasks", "[rl][mtppo]") {
   CHECK_THROWS_AS(taskpack::load_suite("MT5"), ConfigError);
 }
 
+TEST_CASE("mtppo normalises advantages within each task when asked", "[rl][mtppo]") {
+  // the same run (same seed, same first rollout) with batch and with task normalisation: the
+  // first update's losses differ, and the run folder keeps the setting for a resume
+  test::TaskTempDir tmp;
+  std::vector<double> first_loss;
+  for (std::string norm : {"batch", "task"}) {
+    const std::string dir = tmp.file("mt4-" + norm);
+    const std::string yaml =
+        tiny_suite_yaml("MT4", {"train.steps=128", "ppo.advantage_norm=" + norm});
+    auto r = rl::train_new(yaml, dir, test::quiet());
+    CHECK(r.updates == 2);
+    CHECK(read_file(dir + "/config.yaml").find("advantage_norm: " + norm) != std::string::npos);
+    std::vector<std::string> cols;
+    std::vector<std::vector<double>> rows;
+    rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
+    const auto at = std::find(cols.begin(), cols.end(), "policy_loss") - cols.begin();
+    REQUIRE(at < static_cast<long>(cols.size()));
+    REQUIRE(rows.size() == 2);
+    CHECK(std::isfinite(rows[0][at]));
+    first_loss.push_back(rows[0][at]);
+  }
+  CHECK(first_loss[0] != first_loss[1]);
+}
+
 TEST_CASE("bidex train records task and suite runs in the registry", "[rl][mtppo][registry]") {
   test::TaskTempDir tmp;
   const std::string reg = tmp.file("reg.sqlite");

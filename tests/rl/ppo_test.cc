@@ -127,6 +127,37 @@ TEST_CASE("PPO updates raise the probability of better actions (one-step bandit)
   CHECK(mean_a0() > before + 0.3);
 }
 
+TEST_CASE("advantages are normalised over the update or within each task", "[rl][ppo]") {
+  torch::manual_seed(3);
+  // three tasks of very different reward scales, one of a single row
+  auto adv = torch::cat({torch::randn({5}) * 100 + 40, torch::randn({6}) * 0.1 - 2,
+                         torch::randn({1})});
+  auto groups = torch::tensor({0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 2}, torch::kLong);
+  // over the update: the formula PPO always had
+  auto all = rl::normalize_advantages(adv);
+  CHECK(torch::equal(all, (adv - adv.mean()) / (adv.std() + 1e-8)));
+  // one group holding every row: the same, within rounding
+  CHECK(torch::allclose(rl::normalize_advantages(adv, torch::zeros({12}, torch::kLong), 1), all,
+                        1e-5, 1e-6));
+  // per task: each task's rows by hand, mean 0 and unbiased std 1 each
+  auto per = rl::normalize_advantages(adv, groups, 3);
+  for (auto [first, n] : {std::pair<int64_t, int64_t>{0, 5}, {5, 6}}) {
+    auto a = adv.narrow(0, first, n);
+    auto want = (a - a.mean()) / (a.std() + 1e-8);
+    CHECK(torch::allclose(per.narrow(0, first, n), want, 1e-5, 1e-6));
+    CHECK(per.narrow(0, first, n).mean().item<double>() == Approx(0).margin(1e-5));
+    CHECK(per.narrow(0, first, n).std().item<double>() == Approx(1).epsilon(1e-4));
+  }
+  CHECK(per[11].item<double>() == 0.0);  // a lone row: its advantage less its own mean
+  // the small task's signal survives: over the update it is swamped by the large task's spread
+  CHECK(all.narrow(0, 5, 6).std().item<double>() < 0.01);
+  // task ids from the one-hot's columns, raw or normalised by a running mean and std
+  auto onehot = torch::eye(3).index_select(0, groups);
+  auto normalised = (onehot - onehot.mean(0)) / onehot.std(0);
+  CHECK(torch::equal(rl::task_ids(torch::cat({torch::randn({12, 4}), onehot}, 1), 3), groups));
+  CHECK(torch::equal(rl::task_ids(torch::cat({torch::randn({12, 4}), normalised}, 1), 3), groups));
+}
+
 TEST_CASE("the KL-adaptive learning rate falls on large steps and rises on small ones",
           "[rl][ppo]") {
   torch::manual_seed(2);
