@@ -41,7 +41,8 @@
 #   bench/sweep_run.sh pack OUTDIR DEST
 #       OUTDIR as DEST/sweep.tgz, without the training logs, and those logs as DEST/logs.tgz
 #   bench/sweep_run.sh keep OUTDIR RUN DEST [FIRST [COUNT]]
-#       a run folder to carry into a later lease (run folders do not outlive one; MT20's
+#       a run folder to carry into a later lease of the same session (run folders do not outlive
+#       a lease, and DEST, an ignored folder of the checkout, does not outlive the session; MT20's
 #       checkpoint is 86 MB): the folder with its newest checkpoint only, as RUN.tar.partNN of
 #       15 MiB in DEST, parts FIRST.. (default 0), COUNT of them (default all; a device call
 #       brings back at most 64 MiB: four parts)
@@ -59,7 +60,11 @@
 # for MAML and ProMP), as eval-test-adaptN.json, a row of its own.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-stage=${1:?stage: build, start, wait, stop, collect or pack}
+stage=${1:-}
+if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
+  sed -n '2,/^[^#]/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'
+  exit 0
+fi
 out=$(realpath -m "${2:?OUTDIR}")
 shift 2
 build=${BIDEX_GPU_BUILD:-build-gpu}
