@@ -246,7 +246,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     const bool td3 = info.section == "td3";
     auto p = v.child(info.section);
     std::vector<std::string> keys = replay_keys;
-    keys.insert(keys.end(), {"epochs", "act_noise", "preact_l2"});
+    keys.insert(keys.end(), {"epochs", "act_noise", "preact_l2", "cuda_graph"});
     if (td3) keys.insert(keys.end(), {"target_noise", "noise_clip", "policy_delay"});
     p.allow_keys(keys);
     auto& o = c.td3;
@@ -255,6 +255,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     o.act_noise = read_real(p, "act_noise", 0, 10, false);
     // absent from run configs written before it existed: 0, the plain actor loss
     o.preact_l2 = p.has("preact_l2") ? read_real(p, "preact_l2", 0, 1e3, false) : 0.0;
+    if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();  // absent before it existed
     o.twin = td3;
     if (td3) {
       o.target_noise = read_real(p, "target_noise", 0, 10, false);

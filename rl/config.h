@@ -90,6 +90,9 @@ struct Td3Config {
   double target_noise = 0.2;  // target policy smoothing: noise std ...
   double noise_clip = 0.5;    // ... clipped to +- this
   int policy_delay = 2;       // actor and target updates every this many critic steps
+  // on a CUDA device, once the replay buffer is full: an update's gradient steps replayed as one
+  // CUDA graph (rl/td3.cc)
+  bool cuda_graph = false;
 };
 
 struct TrainConfig {

@@ -1,9 +1,19 @@
 #include "rl/td3.h"
 
+#include <cstdio>
+#include <string>
+
 #include "rl/checkpoint.h"
 #include "rl/flat_adam.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
+
+#ifdef BIDEX_TORCH_CUDA
+#include <ATen/cuda/CUDAEvent.h>
+#include <ATen/cuda/CUDAGraph.h>
+#include <c10/cuda/CUDAGuard.h>
+#include <c10/cuda/CUDAStream.h>
+#endif
 
 namespace bidex::rl {
 
@@ -74,13 +84,39 @@ class Td3Algorithm final : public Algorithm {
 
   std::vector<double> update(const torch::Tensor&) override {
     const auto dev = critic_->q1->parameters()[0].device();
-    // q_loss, actor_loss, q_mean per critic step; the actor's saturated share per actor step
-    auto sums = torch::zeros({3}, torch::TensorOptions().dtype(torch::kFloat64).device(dev));
-    auto saturated = torch::zeros({}, sums.options());
-    int64_t step = steps_.item<int64_t>();
-    int actor_steps = 0;
+    if (!sums_.defined() || sums_.device() != dev) {
+      // q_loss, actor_loss, q_mean per critic step; the actor's saturated share per actor step
+      sums_ = torch::zeros({3}, torch::TensorOptions().dtype(torch::kFloat64).device(dev));
+      saturated_ = torch::zeros({}, sums_.options());
+    }
+    const int64_t step0 = steps_.item<int64_t>();  // a host tensor: no device read
     const int n = c_.epochs * c_.minibatches;
-    for (int k = 0; k < n; ++k, ++step) {
+    int actor_steps = 0;
+    for (int k = 0; k < n; ++k) actor_steps += td3_actor_step(step0 + k, c_.policy_delay);
+    bool eager = true;
+#ifdef BIDEX_TORCH_CUDA
+    // a graph replays one fixed sequence: the buffer's size (the sampled range) and the phase
+    // of the policy delay must be the same at every update
+    if (c_.cuda_graph && dev.is_cuda() && replay_->size() == replay_->capacity() &&
+        n % c_.policy_delay == 0) {
+      eager = false;
+      graphed_steps(n, step0);
+    }
+#endif
+    if (eager) gradient_steps(n, step0);
+    steps_.fill_(step0 + n);
+    auto m = (sums_ / n).to(torch::kCPU);
+    const double per_actor_step = actor_steps ? 1.0 / actor_steps : 0.0;
+    return {m[0].item<double>(), m[1].item<double>() * n * per_actor_step, m[2].item<double>(),
+            static_cast<double>(actor_steps), saturated_.item<double>() * per_actor_step};
+  }
+
+  // n gradient steps from gradient step step0, their statistics summed into sums_ and
+  // saturated_; nothing read back, so that a CUDA graph can capture them
+  void gradient_steps(int n, int64_t step0) {
+    sums_.zero_();
+    saturated_.zero_();
+    for (int k = 0; k < n; ++k) {
       const auto b = replay_->sample(c_.batch_size);
       torch::Tensor target;
       {
@@ -102,29 +138,96 @@ class Td3Algorithm final : public Algorithm {
       critic_opt_->clip_grad_norm(c_.max_grad_norm);
       critic_opt_->step();
       torch::Tensor actor_loss = torch::zeros({}, q_loss.options());
-      if (td3_actor_step(step, c_.policy_delay)) {
+      if (td3_actor_step(step0 + k, c_.policy_delay)) {
         auto pre = actor_->preactivation(b.obs);
         auto mu_b = torch::tanh(pre);
         actor_loss = td3_actor_loss(critic_->forward(b.obs, mu_b).first, pre, c_.preact_l2);
-        saturated += mu_b.detach().abs().gt(0.99).to(torch::kFloat64).mean();
+        {
+          torch::NoGradGuard ng;
+          saturated_ += mu_b.detach().abs().gt(0.99).to(torch::kFloat64).mean();
+        }
         actor_opt_->zero_grad();
         actor_loss.backward();
         actor_opt_->clip_grad_norm(c_.max_grad_norm);
         actor_opt_->step();
         polyak_update(*actor_, *actor_target_, c_.polyak);
         polyak_update(*critic_, *critic_target_, c_.polyak);
-        ++actor_steps;
       }
       torch::NoGradGuard ng;
-      sums += torch::stack({q_loss.detach(), actor_loss.detach(), q1.detach().mean()})
-                  .to(torch::kFloat64);
+      sums_ += torch::stack({q_loss.detach(), actor_loss.detach(), q1.detach().mean()})
+                   .to(torch::kFloat64);
     }
-    steps_.fill_(step);
-    auto m = (sums / n).to(torch::kCPU);
-    const double per_actor_step = actor_steps ? 1.0 / actor_steps : 0.0;
-    return {m[0].item<double>(), m[1].item<double>() * n * per_actor_step, m[2].item<double>(),
-            static_cast<double>(actor_steps), saturated.item<double>() * per_actor_step};
   }
+
+#ifdef BIDEX_TORCH_CUDA
+  // An update's gradient steps as one CUDA graph, as PPO's minibatch step (rl/ppo.cc): the
+  // first full-buffer update runs eagerly on a side stream, the next is captured there and
+  // replayed, and every later one replays it. The graph reads the buffer's rows where they are
+  // (the buffer's tensors keep their addresses) and draws its random numbers from the CUDA
+  // generator's graph-safe state.
+  struct Graph {
+    c10::cuda::CUDAStream stream = c10::cuda::getStreamFromPool();
+    std::unique_ptr<at::cuda::CUDAGraph> graph;
+    bool warm = false;
+    int64_t phase = -1;  // the policy delay's phase the graph was captured at
+  };
+
+  void graphed_steps(int n, int64_t step0) {
+    if (!graph_) graph_ = std::make_unique<Graph>();
+    Graph& g = *graph_;
+    const int64_t phase = step0 % c_.policy_delay;
+    if (g.phase != phase) {  // a resumed run at another phase (n is a multiple of the delay)
+      g.graph.reset();
+      g.warm = false;
+      g.phase = phase;
+    }
+    // a replay runs no host code: the parameters must be the flat buffers' now
+    critic_opt_->rebind();
+    actor_opt_->rebind();
+    const auto main = c10::cuda::getCurrentCUDAStream();
+    at::cuda::CUDAEvent ready;
+    ready.record(main);
+    ready.block(g.stream);
+    {
+      c10::cuda::CUDAStreamGuard on_side(g.stream);
+      if (g.warm && !g.graph) {
+        auto graph = std::make_unique<at::cuda::CUDAGraph>();
+        try {
+          graph->capture_begin();
+          gradient_steps(n, step0);  // recorded, not run
+          graph->capture_end();
+          g.graph = std::move(graph);
+          std::fprintf(stderr, "bidex: TD3's gradient steps are replayed as a CUDA graph\n");
+        } catch (const std::exception& e) {
+          // end a capture the error left open, then go on without the graph
+          cudaStreamCaptureStatus status = cudaStreamCaptureStatusNone;
+          if (cudaStreamIsCapturing(g.stream.stream(), &status) == cudaSuccess &&
+              status != cudaStreamCaptureStatusNone) {
+            cudaGraph_t broken = nullptr;
+            cudaStreamEndCapture(g.stream.stream(), &broken);
+            if (broken) cudaGraphDestroy(broken);
+          }
+          (void)cudaGetLastError();
+          std::fprintf(stderr,
+                       "bidex: warning: TD3's gradient steps could not be captured as a CUDA "
+                       "graph; they run without one (cuda_graph: false hides this): %s\n",
+                       std::string(e.what()).substr(0, 300).c_str());
+          c_.cuda_graph = false;
+        }
+      }
+      if (g.graph)
+        g.graph->replay();
+      else
+        gradient_steps(n, step0);
+      g.warm = true;
+    }
+    at::cuda::CUDAEvent done;
+    done.record(g.stream);
+    done.block(main);
+  }
+#else
+  struct Graph {};
+#endif
 
   const std::vector<std::string>& metric_names() const override {
     static const std::vector<std::string> names = {"q_loss", "actor_loss", "q_mean",
@@ -174,6 +277,8 @@ class Td3Algorithm final : public Algorithm {
   std::unique_ptr<ReplayBuffer> replay_;
   torch::Tensor steps_;  // gradient steps so far (the policy delay's phase; checkpointed)
   torch::Tensor last_obs_, last_act_;
+  torch::Tensor sums_, saturated_;  // an update's statistics, summed on the device
+  std::unique_ptr<Graph> graph_;
 };
 
 }  // namespace
