@@ -14,6 +14,8 @@
 #include <ATen/cuda/CUDAGraph.h>
 #include <c10/cuda/CUDAGuard.h>
 #include <c10/cuda/CUDAStream.h>
+
+#include "rl/cuda_graph.h"
 #endif
 
 namespace bidex::rl {
@@ -258,29 +260,10 @@ void Ppo::graphed_epochs(const Rows& rows, int64_t B) {
     g.rows.targets.copy_(rows.targets);
     g.rows.values_old.copy_(rows.values_old);
     if (g.warm && !g.graph) {
-      auto graph = std::make_unique<at::cuda::CUDAGraph>();
-      try {
-        graph->capture_begin();
-        minibatch(g.rows, g.idx, false);  // recorded, not run
-        graph->capture_end();
-        g.graph = std::move(graph);
-        std::fprintf(stderr, "bidex: PPO's minibatch step is replayed as a CUDA graph\n");
-      } catch (const std::exception& e) {
-        // end a capture the error left open, then go on without the graph
-        cudaStreamCaptureStatus status = cudaStreamCaptureStatusNone;
-        if (cudaStreamIsCapturing(g.stream.stream(), &status) == cudaSuccess &&
-            status != cudaStreamCaptureStatusNone) {
-          cudaGraph_t broken = nullptr;
-          cudaStreamEndCapture(g.stream.stream(), &broken);
-          if (broken) cudaGraphDestroy(broken);
-        }
-        (void)cudaGetLastError();
-        std::fprintf(stderr,
-                     "bidex: warning: PPO's minibatch step could not be captured as a CUDA graph; "
-                     "it runs without one (ppo.cuda_graph: false hides this): %s\n",
-                     std::string(e.what()).substr(0, 300).c_str());
-        c_.cuda_graph = false;
-      }
+      g.graph = capture_cuda_graph(
+          g.stream, [&] { minibatch(g.rows, g.idx, false); }, "PPO's minibatch step",
+          "ppo.cuda_graph");
+      if (!g.graph) c_.cuda_graph = false;
     }
     epochs(g.rows, B, c_.cuda_graph ? &g.idx : nullptr);
     g.warm = true;

@@ -1,8 +1,5 @@
 #include "rl/td3.h"
 
-#include <cstdio>
-#include <string>
-
 #include "rl/checkpoint.h"
 #include "rl/flat_adam.h"
 #include "rl/policy.h"
@@ -13,6 +10,8 @@
 #include <ATen/cuda/CUDAGraph.h>
 #include <c10/cuda/CUDAGuard.h>
 #include <c10/cuda/CUDAStream.h>
+
+#include "rl/cuda_graph.h"
 #endif
 
 namespace bidex::rl {
@@ -191,29 +190,10 @@ class Td3Algorithm final : public Algorithm {
     {
       c10::cuda::CUDAStreamGuard on_side(g.stream);
       if (g.warm && !g.graph) {
-        auto graph = std::make_unique<at::cuda::CUDAGraph>();
-        try {
-          graph->capture_begin();
-          gradient_steps(n, step0);  // recorded, not run
-          graph->capture_end();
-          g.graph = std::move(graph);
-          std::fprintf(stderr, "bidex: TD3's gradient steps are replayed as a CUDA graph\n");
-        } catch (const std::exception& e) {
-          // end a capture the error left open, then go on without the graph
-          cudaStreamCaptureStatus status = cudaStreamCaptureStatusNone;
-          if (cudaStreamIsCapturing(g.stream.stream(), &status) == cudaSuccess &&
-              status != cudaStreamCaptureStatusNone) {
-            cudaGraph_t broken = nullptr;
-            cudaStreamEndCapture(g.stream.stream(), &broken);
-            if (broken) cudaGraphDestroy(broken);
-          }
-          (void)cudaGetLastError();
-          std::fprintf(stderr,
-                       "bidex: warning: TD3's gradient steps could not be captured as a CUDA "
-                       "graph; they run without one (cuda_graph: false hides this): %s\n",
-                       std::string(e.what()).substr(0, 300).c_str());
-          c_.cuda_graph = false;
-        }
+        g.graph = capture_cuda_graph(
+            g.stream, [&] { gradient_steps(n, step0); }, "TD3's gradient steps",
+            c_.twin ? "td3.cuda_graph" : "ddpg.cuda_graph");
+        if (!g.graph) c_.cuda_graph = false;
       }
       if (g.graph)
         g.graph->replay();
