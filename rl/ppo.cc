@@ -4,10 +4,9 @@
 #include <cstdio>
 #include <string>
 
-#include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/onpolicy.h"
-#include "taskpack/suite.h"
+#include "rl/suite_tasks.h"
 
 #ifdef BIDEX_TORCH_CUDA
 #include <ATen/cuda/CUDAEvent.h>
@@ -326,15 +325,9 @@ class PpoAlgorithm final : public GaussianOnPolicy {
 
 std::unique_ptr<Algorithm> make_ppo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device) {
-  int64_t ntasks = 0;
-  if (config.ppo.advantage_norm == "task") {
-    // the suite's pack carries a one-hot id as wide as its train split (taskpack::suite_pack)
-    ntasks = static_cast<int64_t>(taskpack::load_suite(config.suite).train.size());
-    if (ntasks < 1 || ntasks >= obs_dim)
-      throw Error("mtppo: ppo.advantage_norm task: suite " + config.suite + " has " +
-                  std::to_string(ntasks) + " train tasks for observations of " +
-                  std::to_string(obs_dim));
-  }
+  const int64_t ntasks = config.ppo.advantage_norm == "task"
+                             ? suite_task_count(config, obs_dim, "mtppo: ppo.advantage_norm task")
+                             : 0;
   return std::make_unique<PpoAlgorithm>(config, obs_dim, act_dim, nslot, device, ntasks);
 }
 

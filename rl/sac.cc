@@ -8,7 +8,7 @@
 #include "rl/flat_adam.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
-#include "taskpack/suite.h"
+#include "rl/suite_tasks.h"
 
 namespace bidex::rl {
 
@@ -221,12 +221,7 @@ std::unique_ptr<Algorithm> make_sac(const TrainConfig& config, int64_t obs_dim, 
 std::unique_ptr<Algorithm> make_mtsac(const TrainConfig& config, int64_t obs_dim,
                                       int64_t act_dim, int64_t nslot,
                                       const torch::Device& device) {
-  // the suite's pack carries a one-hot id as wide as its train split (taskpack::suite_pack)
-  const int64_t ntasks =
-      static_cast<int64_t>(taskpack::load_suite(config.suite).train.size());
-  if (ntasks < 1 || ntasks >= obs_dim)
-    throw Error("mtsac: suite " + config.suite + " has " + std::to_string(ntasks) +
-                " train tasks for observations of " + std::to_string(obs_dim));
+  const int64_t ntasks = suite_task_count(config, obs_dim, "mtsac");
   return std::make_unique<SacAlgorithm>(config, obs_dim, act_dim, nslot, device, ntasks);
 }
 
