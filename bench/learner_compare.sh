@@ -11,16 +11,17 @@
 #          OUTDIR/solo-{old,new}-s0/catch_abreast-ppo/
 #       3. together: NEW's catch_abreast seed 1 and hand_over seeds 0 and 1, to 20M slot-steps,
 #          three trainings sharing the GPU (curves only): OUTDIR/new-sS/TASK-ppo/
-#       4. offpolicy: `bidex train --profile` of SAC and of TD3 at their own YAML's settings
-#          (the paper's: 2,048 slots, 4 gradient steps of 32 transitions an update), 64 updates
-#          (1M slot-steps) of catch_abreast with each build: OUTDIR/offpolicy-ALGO-{old,new}/
-#       Every run: 16,384 slots, 16 minibatches of 8,192 (the settings that reach the
+#       4. offpolicy: `bidex train --profile` of SAC and of TD3 ($BIDEX_COMPARE_ALGOS, default
+#          "sac td3") at their own YAML's settings (the paper's, 2,048 slots: SAC 4 gradient
+#          steps of 32 transitions an update, TD3 20 of 100), 64 updates (1M slot-steps) of
+#          catch_abreast with each build: OUTDIR/offpolicy-ALGO-{old,new}/
+#       Every PPO run: 16,384 slots, 16 minibatches of 8,192 (the settings that reach the
 #       original's returns). OUTDIR/done when all ended; OUTDIR/compare.log tells the stages.
 #   bench/learner_compare.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for OUTDIR/done, printing the newest progress line
 # BIDEX_COMMIT_OLD and BIDEX_COMMIT_NEW name the builds' commits in the results. OLD and NEW may
-# be one build: BIDEX_OLD_ARGS and BIDEX_NEW_ARGS add settings to each side's commands (e.g.
-# "-o ppo.cuda_graph=true"). BIDEX_COMPARE_STAGES (default "profile solo together";
+# be one build: BIDEX_OLD_ARGS and BIDEX_NEW_ARGS add settings to each side's commands, every
+# stage's (e.g. "-o ppo.bf16=true"; "-o td3.cuda_graph=true" with BIDEX_COMPARE_ALGOS=td3). BIDEX_COMPARE_STAGES (default "profile solo together";
 # offpolicy runs only when named) picks stages,
 # BIDEX_COMPARE_TASKS (default "catch_abreast hand_over") the profiles' tasks.
 set -uo pipefail
@@ -78,14 +79,16 @@ run)  # the sequence itself (start runs it in the background)
     train new new-s1 hand_over 1 20e6 &
     wait
   fi
-  for algo in sac td3; do
+  for algo in ${BIDEX_COMPARE_ALGOS:-sac td3}; do
     [[ $stages == *" offpolicy "* ]] || break
     for b in old new; do
+      extra_of "$b"
       echo "$(date -u +%T) offpolicy $algo $b"
       d=$out/offpolicy-$algo-$b
       mkdir -p "$d"
       cmd=(train --task catch_abreast --algo "$algo" --device cuda --profile
-           --run "/tmp/compare-offpolicy-$algo-$b" --no-registry -o train.steps=1048576)
+           --run "/tmp/compare-offpolicy-$algo-$b" --no-registry -o train.steps=1048576
+           "${extra[@]}")
       "$(build_of $b)/apps/bidex" "${cmd[@]}" >"$d/profile.log" 2>&1
       cp "/tmp/compare-offpolicy-$algo-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
       echo "commit $(commit_of $b): bidex ${cmd[*]}" >"$d/command.txt"

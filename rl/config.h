@@ -35,6 +35,9 @@ struct PpoConfig {
   bool value_norm = false;
   // PPO and MTPPO on a CUDA device: replay the minibatch step as a CUDA graph (rl/ppo.h)
   bool cuda_graph = true;
+  // PPO and MTPPO: the minibatch step's network products in bfloat16 (rl/autocast.h); the
+  // parameters, gradients, optimizer and losses stay float32
+  bool bf16 = false;
   // advantages normalised over the whole update ("batch") or within each task of a multi-task
   // pack ("task", multi-task PPO: each row's task read from its one-hot id)
   std::string advantage_norm = "batch";

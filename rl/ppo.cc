@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <string>
 
+#include "rl/autocast.h"
 #include "rl/checkpoint.h"
 #include "rl/onpolicy.h"
 #include "rl/suite_tasks.h"
@@ -120,7 +121,12 @@ void Ppo::minibatch(const Rows& r, const torch::Tensor& idx, bool timed) {
   };
   auto o = r.nobs.index_select(0, idx);
   auto a = r.actions.index_select(0, idx);
-  auto mu = model_->mean(o);
+  torch::Tensor mu, v;
+  {
+    Bf16Autocast bf16(o.device().type(), c_.bf16);  // the networks only; the losses in float32
+    mu = model_->mean(o).to(torch::kFloat32);
+    v = model_->raw_value(o).to(torch::kFloat32);
+  }
   auto log_std = model_->log_std();
   auto logp = gaussian_log_prob(a, mu, log_std);
   mark("forward");
@@ -134,7 +140,6 @@ void Ppo::minibatch(const Rows& r, const torch::Tensor& idx, bool timed) {
   auto adv_mb = r.advantages.index_select(0, idx);
   auto ratio = torch::exp(logp - r.logp_old.index_select(0, idx));
   auto policy_loss = clipped_surrogate(ratio, adv_mb, c_.clip);
-  auto v = model_->raw_value(o);
   auto tgt = r.targets.index_select(0, idx);
   torch::Tensor value_loss;
   if (c_.clip_value_loss) {

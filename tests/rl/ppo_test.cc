@@ -3,13 +3,14 @@
 // better actions. The update on the device (FlatAdam, the KL-adaptive rate without a read back)
 // against the update as it ran with LibTorch's Adam and the host's rule, and a PPO run saved and
 // loaded against the unbroken run.
-#include "tests/rl/rl_fixture.h"
+#include "tests/rl/mirror_fixture.h"
 
 #include <algorithm>
 #include <cmath>
 #include <sstream>
 
 #include "rl/algorithm.h"
+#include "rl/autocast.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
 
@@ -395,6 +396,112 @@ TEST_CASE("PPO's update equals the update with LibTorch's Adam and the host's KL
   torch::manual_seed(40);
   ppo.update(noisy_rollout(m, T, N, D, A, 0.02), torch::zeros({N}));
   CHECK(ppo.timer().totals().at("host_syncs") == 1);
+}
+
+TEST_CASE("bfloat16 autocast holds for its scope and restores the caller's setting",
+          "[rl][ppo]") {
+  rl::PpoConfig c;
+  c.hidden = {16};
+  c.obs_norm = false;
+  torch::manual_seed(3);
+  rl::ActorCritic m(3, 2, c);
+  torch::NoGradGuard ng;
+  const auto x = torch::randn({8, 3});
+  const auto plain = m->mean(x);
+  {
+    rl::Bf16Autocast on(torch::kCPU, true);
+    const auto low = m->mean(x);
+    CHECK(low.scalar_type() == torch::kBFloat16);
+    CHECK(m->raw_value(x).scalar_type() == torch::kBFloat16);
+    // bfloat16 keeps 8 bits of mantissa: near the float32 result, not equal to it
+    const double err = (low.to(torch::kFloat32) - plain).abs().max().item<double>();
+    CHECK(err > 0);
+    CHECK(err < 0.02 * plain.abs().max().item<double>() + 1e-3);
+    {
+      rl::Bf16Autocast off(torch::kCPU, false);  // off: leaves the outer scope's setting
+      CHECK(m->mean(x).scalar_type() == torch::kBFloat16);
+    }
+  }
+  CHECK(m->mean(x).scalar_type() == torch::kFloat32);
+  CHECK(torch::equal(m->mean(x), plain));
+}
+
+TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the bandit",
+          "[rl][ppo]") {
+  rl::PpoConfig c;
+  c.hidden = {64, 64};
+  c.epochs = 2;
+  c.minibatches = 2;
+  c.obs_norm = false;
+  c.schedule = "fixed";
+  c.lr = 1e-3;
+  const int64_t T = 4, N = 64, D = 3, A = 2;
+  torch::manual_seed(17);
+  rl::ActorCritic full(D, A, c);
+  torch::manual_seed(17);
+  rl::ActorCritic low(D, A, c);
+  const auto before = test::param_copies(*full);
+  rl::PpoConfig cb = c;
+  cb.bf16 = true;
+  rl::Ppo ppo_full(full, c), ppo_low(low, cb);
+  torch::manual_seed(5);
+  const auto r = noisy_rollout(full, T, N, D, A, 0.1);
+  const auto last = torch::randn({N});
+  torch::manual_seed(6);
+  const auto st_full = ppo_full.update(r, last);
+  torch::manual_seed(6);
+  const auto st_low = ppo_low.update(r, last);
+  // parameters stay float32; the step differs by rounding, a small part of the step itself
+  double step = 0, gap = 0;
+  const auto pf = full->parameters(), pl = low->parameters();
+  for (size_t k = 0; k < pf.size(); ++k) {
+    CHECK(pl[k].scalar_type() == torch::kFloat32);
+    step += (pf[k] - before[k]).pow(2).sum().item<double>();
+    gap += (pl[k] - pf[k]).pow(2).sum().item<double>();
+  }
+  INFO("step " << std::sqrt(step) << ", gap " << std::sqrt(gap));
+  CHECK(gap > 0);
+  CHECK(std::sqrt(gap) < 0.25 * std::sqrt(step));
+  CHECK(st_low.policy_loss == Approx(st_full.policy_loss).margin(0.02));
+  CHECK(st_low.value_loss == Approx(st_full.value_loss).epsilon(0.02));
+  CHECK(st_low.entropy == Approx(st_full.entropy).epsilon(1e-3));
+
+  // and the one-step bandit is learned in bfloat16 as in float32
+  rl::PpoConfig cbandit;
+  cbandit.hidden = {32};
+  cbandit.epochs = 4;
+  cbandit.minibatches = 4;
+  cbandit.lr = 3e-3;
+  cbandit.schedule = "fixed";
+  cbandit.obs_norm = false;
+  cbandit.bf16 = true;
+  torch::manual_seed(5);
+  rl::ActorCritic m(D, A, cbandit);
+  rl::Ppo ppo(m, cbandit);
+  auto mean_a0 = [&] {
+    torch::NoGradGuard ng;
+    return m->mean(torch::ones({1, D})).index({0, 0}).item<double>();
+  };
+  const double start = mean_a0();
+  for (int it = 0; it < 15; ++it) {
+    rl::Rollout b(1, 256, D, A, torch::Device(torch::kCPU));
+    torch::NoGradGuard ng;
+    auto obs = torch::ones({256, D});
+    auto mu = m->mean(obs);
+    b.log_std.copy_(m->log_std());
+    auto a = mu + torch::exp(b.log_std) * torch::randn_like(mu);
+    b.nobs[0].copy_(obs);
+    b.actions[0].copy_(a);
+    b.mu[0].copy_(mu);
+    b.values[0].copy_(m->value(obs));
+    b.logp[0].copy_(rl::gaussian_log_prob(a, mu, b.log_std));
+    b.rewards[0].copy_(a.select(1, 0));
+    b.dones[0].fill_(1.0);
+    torch::GradMode::set_enabled(true);
+    ppo.update(b, torch::zeros({256}));
+    torch::GradMode::set_enabled(false);
+  }
+  CHECK(mean_a0() > start + 0.3);
 }
 
 TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]") {
