@@ -296,7 +296,24 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     o.max_grad_norm = read_real(p, "max_grad_norm", 0, 1e9, true);
     o.value_coef = read_real(p, "value_coef", 0, 1e3, false);
     o.obs_norm = p.req<bool>("obs_norm");
-    o.value_norm = p.req<bool>("value_norm");
+    {
+      const auto vn = p.child("value_norm");
+      try {
+        o.value_norm = vn.as<bool>();
+      } catch (const ConfigError&) {  // not a bool: task, or an error naming the choices
+        std::string s;
+        try {
+          s = vn.as<std::string>();
+        } catch (const ConfigError&) {
+        }
+        if (s != "task") vn.fail("true, false or task (multi-task PPO)", vn.repr());
+        if (c.algo != "mtppo")
+          vn.fail("true or false (task normalises within each task of a suite's pack: --suite "
+                  "with --algo mtppo; algorithm here: " + c.algo + ")",
+                  vn.repr());
+        o.value_norm = o.value_norm_task = true;
+      }
+    }
     if (trpo) {
       auto& t = c.trpo;
       t.max_kl = read_real(p, "max_kl", 0, 10, true);

@@ -33,6 +33,9 @@ struct PpoConfig {
   double value_clip = 0.2;
   bool obs_norm = true;
   bool value_norm = false;
+  // value_norm within each task of a multi-task pack (`value_norm: task`, multi-task PPO; each
+  // row's task read from its one-hot id), value_norm then true
+  bool value_norm_task = false;
   // PPO and MTPPO on a CUDA device: replay the minibatch step as a CUDA graph (rl/ppo.h)
   bool cuda_graph = true;
   // PPO and MTPPO: the minibatch step's network products in bfloat16 (rl/autocast.h); the

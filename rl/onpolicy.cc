@@ -5,8 +5,8 @@
 namespace bidex::rl {
 
 GaussianOnPolicy::GaussianOnPolicy(const PpoConfig& config, int64_t D, int64_t A, int64_t N,
-                                   const torch::Device& device)
-    : c_(config), model_(D, A, config) {
+                                   const torch::Device& device, int64_t value_tasks)
+    : c_(config), model_(D, A, config, value_tasks) {
   model_->to(device);
   ro_ = std::make_unique<Rollout>(c_.horizon, N, D, A, device);
 }

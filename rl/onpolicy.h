@@ -15,8 +15,9 @@ namespace bidex::rl {
 
 class GaussianOnPolicy : public Algorithm {
  public:
+  // value_tasks: the pack's task count where the critic's returns are normalised per task
   GaussianOnPolicy(const PpoConfig& config, int64_t obs_dim, int64_t act_dim, int64_t nslot,
-                   const torch::Device& device);
+                   const torch::Device& device, int64_t value_tasks = 0);
 
   int steps_per_update() const override { return c_.horizon; }
   torch::Tensor act(const torch::Tensor& obs) override;

@@ -4,11 +4,11 @@
 
 namespace bidex::rl {
 
-RunningNormImpl::RunningNormImpl(int64_t dim, double clip) : clip_(clip) {
+RunningNormImpl::RunningNormImpl(int64_t dim, double clip, bool groups) : clip_(clip) {
   auto f64 = torch::TensorOptions().dtype(torch::kFloat64);
   mean_ = register_buffer("mean", torch::zeros({dim}, f64));
   var_ = register_buffer("var", torch::ones({dim}, f64));
-  count_ = register_buffer("count", torch::full({1}, 1e-4, f64));
+  count_ = register_buffer("count", torch::full({groups ? dim : 1}, 1e-4, f64));
 }
 
 void merge_moments(torch::Tensor& count, torch::Tensor& mean, torch::Tensor& var,
@@ -38,6 +38,45 @@ torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x) const {
 
 torch::Tensor RunningNormImpl::denormalize(const torch::Tensor& x) const {
   auto m = mean_.to(x.scalar_type()), s = (var_ + 1e-8).sqrt().to(x.scalar_type());
+  return x * s + m;
+}
+
+namespace {
+// per-group values [G] at groups of any shape
+torch::Tensor at_groups(const torch::Tensor& values, const torch::Tensor& groups) {
+  return values.index_select(0, groups.reshape({-1})).reshape(groups.sizes());
+}
+}  // namespace
+
+void RunningNormImpl::update(const torch::Tensor& x, const torch::Tensor& groups) {
+  if (!groups.defined()) return update(x.unsqueeze(-1));
+  TORCH_CHECK(count_.size(0) == mean_.size(0), "RunningNorm: groups need a grouped normaliser");
+  torch::NoGradGuard ng;
+  // per group by index_add, as normalize_advantages (rl/ppo.cc): count, mean, then the squared
+  // deviations from it (population variance, as update(x))
+  const auto xd = x.detach().to(torch::kFloat64).reshape({-1});
+  const auto g = groups.reshape({-1});
+  const auto zeros = torch::zeros_like(mean_);
+  const auto n = zeros.index_add(0, g, torch::ones_like(xd));
+  const auto bmean = zeros.index_add(0, g, xd) / n.clamp_min(1);
+  const auto dev = xd - bmean.index_select(0, g);
+  const auto bvar = zeros.index_add(0, g, dev * dev) / n.clamp_min(1);
+  merge_moments(count_, mean_, var_, n, bmean, bvar);
+}
+
+torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x,
+                                         const torch::Tensor& groups) const {
+  if (!groups.defined()) return normalize(x.unsqueeze(-1)).squeeze(-1);
+  const auto m = at_groups(mean_, groups).to(x.scalar_type());
+  const auto s = (at_groups(var_, groups) + 1e-8).sqrt().to(x.scalar_type());
+  return ((x - m) / s).clamp(-clip_, clip_);
+}
+
+torch::Tensor RunningNormImpl::denormalize(const torch::Tensor& x,
+                                           const torch::Tensor& groups) const {
+  if (!groups.defined()) return denormalize(x.unsqueeze(-1)).squeeze(-1);
+  const auto m = at_groups(mean_, groups).to(x.scalar_type());
+  const auto s = (at_groups(var_, groups) + 1e-8).sqrt().to(x.scalar_type());
   return x * s + m;
 }
 
@@ -79,9 +118,11 @@ torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t ou
   return net;
 }
 
-ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& c)
+ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& c,
+                                 int64_t value_tasks)
     : obs_dim_(obs_dim),
       act_dim_(act_dim),
+      value_tasks_(value_tasks),
       use_obs_norm_(c.obs_norm),
       use_value_norm_(c.value_norm) {
   // orthogonal initialisation: sqrt(2) for hidden layers, 0.01 for the actor's output, 1 for the
@@ -90,7 +131,9 @@ ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConf
   critic_ = register_module("critic", mlp(obs_dim, c.hidden, 1, c.activation, 1.0));
   log_std_ = register_parameter("log_std", torch::full({act_dim}, std::log(c.init_std)));
   obs_norm_ = register_module("obs_norm", RunningNorm(obs_dim));
-  value_norm_ = register_module("value_norm", RunningNorm(1, 1e9));
+  value_norm_ = register_module("value_norm", value_tasks > 0
+                                                   ? RunningNorm(value_tasks, 1e9, true)
+                                                   : RunningNorm(1, 1e9));
 }
 
 torch::Tensor ActorCriticImpl::normalize_obs(const torch::Tensor& obs) const {
@@ -109,9 +152,13 @@ torch::Tensor ActorCriticImpl::raw_value(const torch::Tensor& nobs) {
   return critic_->forward(nobs).squeeze(-1);
 }
 
+torch::Tensor ActorCriticImpl::value_groups(const torch::Tensor& nobs) const {
+  return value_tasks_ > 0 ? task_ids(nobs, value_tasks_) : torch::Tensor();
+}
+
 torch::Tensor ActorCriticImpl::value(const torch::Tensor& nobs) {
   auto v = raw_value(nobs);
-  return use_value_norm_ ? value_norm_->denormalize(v) : v;
+  return use_value_norm_ ? value_norm_->denormalize(v, value_groups(nobs)) : v;
 }
 
 QCriticImpl::QCriticImpl(int64_t obs_dim, int64_t act_dim, const std::vector<int>& hidden,
@@ -149,7 +196,7 @@ void make_target(torch::nn::Module& src, torch::nn::Module& target) {
 }
 
 torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks) {
-  return obs.narrow(1, obs.size(1) - ntasks, ntasks).argmax(1);
+  return obs.narrow(-1, obs.size(-1) - ntasks, ntasks).argmax(-1);
 }
 
 }  // namespace bidex::rl

@@ -17,16 +17,23 @@ void merge_moments(torch::Tensor& count, torch::Tensor& mean, torch::Tensor& var
 
 // Running mean and variance of vectors (Chan's parallel update, in float64), and the
 // normalisation clamp((x - mean) / sqrt(var + eps), -clip, clip). Its state is buffers, so it is
-// saved and loaded with the module that owns it.
+// saved and loaded with the module that owns it. Grouped (`groups` true): `dim` scalar series
+// kept apart, each with its own count, and a row's series named by its group.
 class RunningNormImpl : public torch::nn::Module {
  public:
-  explicit RunningNormImpl(int64_t dim, double clip = 5.0);
+  explicit RunningNormImpl(int64_t dim, double clip = 5.0, bool groups = false);
   // x: [batch, dim] (any floating type, any device the module is on)
   void update(const torch::Tensor& x);
   torch::Tensor normalize(const torch::Tensor& x) const;
   // Scale back (value normalisation): x * std + mean, no clamp.
   torch::Tensor denormalize(const torch::Tensor& x) const;
-  double count() const { return count_.item<double>(); }
+  // Scalars x with their groups (long, < dim; the same shape) on a grouped normaliser; with
+  // `groups` undefined, on a one-dimensional one as [batch, 1]. Nothing is read back.
+  void update(const torch::Tensor& x, const torch::Tensor& groups);
+  torch::Tensor normalize(const torch::Tensor& x, const torch::Tensor& groups) const;
+  torch::Tensor denormalize(const torch::Tensor& x, const torch::Tensor& groups) const;
+  // rows seen (over every group)
+  double count() const { return count_.sum().item<double>(); }
 
  private:
   double clip_;
@@ -42,8 +49,8 @@ torch::Tensor gaussian_entropy(const torch::Tensor& log_std);
 torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_std_old,
                           const torch::Tensor& mu_new, const torch::Tensor& log_std_new);
 
-// The task of each row of a multi-task pack's observations: the column of the one-hot id, the
-// last `ntasks` columns (raw or normalised by the running mean and std: a task's own column is
+// The task of each row of a multi-task pack's observations (the last axis: any leading shape):
+// the column of the one-hot id, the last `ntasks` columns (raw or normalised by the running mean and std: a task's own column is
 // the only one above its mean).
 torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks);
 
@@ -76,7 +83,10 @@ TORCH_MODULE(QCritic);
 
 class ActorCriticImpl : public torch::nn::Module {
  public:
-  ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& config);
+  // value_tasks > 0 (value_norm per task): the returns are normalised within each of that many
+  // tasks, each row's task read from the one-hot id that ends its observation
+  ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConfig& config,
+                  int64_t value_tasks = 0);
 
   // Observations as the environment gives them (normalised inside when obs_norm is on).
   torch::Tensor normalize_obs(const torch::Tensor& obs) const;
@@ -85,6 +95,8 @@ class ActorCriticImpl : public torch::nn::Module {
   torch::Tensor value(const torch::Tensor& nobs);
   // The critic's raw output (normalised units when value_norm is on).
   torch::Tensor raw_value(const torch::Tensor& nobs);
+  // The value normaliser's group of each row: its task (value_tasks > 0), else undefined.
+  torch::Tensor value_groups(const torch::Tensor& nobs) const;
   torch::Tensor log_std() const { return log_std_; }
   // The policy's parameters (the mean network and the log-std) and the critic's, apart.
   std::vector<torch::Tensor> actor_parameters() const;
@@ -98,7 +110,7 @@ class ActorCriticImpl : public torch::nn::Module {
   int64_t act_dim() const { return act_dim_; }
 
  private:
-  int64_t obs_dim_, act_dim_;
+  int64_t obs_dim_, act_dim_, value_tasks_;
   bool use_obs_norm_, use_value_norm_;
   torch::nn::Sequential actor_{nullptr}, critic_{nullptr};
   torch::Tensor log_std_;

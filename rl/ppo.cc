@@ -200,14 +200,17 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   auto advantages = adv.reshape({B});
   Rows rows{r.nobs.reshape({B, -1}), r.actions.reshape({B, -1}), r.logp.reshape({B}),
             r.mu.reshape({B, -1}),   r.log_std.detach(),           {}, returns, values_old};
-  rows.advantages =
-      ntasks_ > 0 ? normalize_advantages(advantages, task_ids(rows.nobs, ntasks_), ntasks_)
-                  : normalize_advantages(advantages);
+  // each row's task, once, where the advantages or the returns are normalised per task
+  const auto tasks = ntasks_ > 0 ? task_ids(rows.nobs, ntasks_) : torch::Tensor();
+  rows.advantages = c_.advantage_norm == "task" ? normalize_advantages(advantages, tasks, ntasks_)
+                                                : normalize_advantages(advantages);
   if (model_->uses_value_norm()) {
-    model_->value_norm()->update(returns.unsqueeze(1));
+    const auto groups = c_.value_norm_task ? tasks : torch::Tensor();
+    auto& vn = model_->value_norm();
+    vn->update(returns, groups);
     torch::NoGradGuard ng;
-    rows.targets = model_->value_norm()->normalize(returns.unsqueeze(1)).squeeze(1);
-    rows.values_old = model_->value_norm()->normalize(values_old.unsqueeze(1)).squeeze(1);
+    rows.targets = vn->normalize(returns, groups);
+    rows.values_old = vn->normalize(values_old, groups);
   }
   timer_.mark("prepare");
   const auto device = rows.nobs.device();
@@ -288,7 +291,7 @@ class PpoAlgorithm final : public GaussianOnPolicy {
  public:
   PpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
                const torch::Device& device, int64_t ntasks)
-      : GaussianOnPolicy(config.ppo, D, A, N, device) {
+      : GaussianOnPolicy(config.ppo, D, A, N, device, config.ppo.value_norm_task ? ntasks : 0) {
     ppo_ = std::make_unique<Ppo>(model_, c_, ntasks);
   }
 
@@ -330,9 +333,10 @@ class PpoAlgorithm final : public GaussianOnPolicy {
 
 std::unique_ptr<Algorithm> make_ppo(const TrainConfig& config, int64_t obs_dim, int64_t act_dim,
                                     int64_t nslot, const torch::Device& device) {
-  const int64_t ntasks = config.ppo.advantage_norm == "task"
-                             ? suite_task_count(config, obs_dim, "mtppo: ppo.advantage_norm task")
-                             : 0;
+  const int64_t ntasks =
+      config.ppo.advantage_norm == "task" || config.ppo.value_norm_task
+          ? suite_task_count(config, obs_dim, "mtppo: ppo.advantage_norm or value_norm task")
+          : 0;
   return std::make_unique<PpoAlgorithm>(config, obs_dim, act_dim, nslot, device, ntasks);
 }
 

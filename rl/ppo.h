@@ -62,8 +62,9 @@ struct UpdateStats {
 
 class Ppo {
  public:
-  // ntasks > 0 (config.advantage_norm "task"): advantages normalised within each task of a
-  // multi-task pack, each row's task read from the last ntasks columns of its observation
+  // ntasks: a multi-task pack's task count where config.advantage_norm is "task" (advantages
+  // normalised within each task) or config.value_norm_task (the returns, by the model's grouped
+  // value normaliser), each row's task read from the last ntasks columns of its observation
   Ppo(ActorCritic model, const PpoConfig& config, int64_t ntasks = 0);
   ~Ppo();
 
@@ -95,7 +96,7 @@ class Ppo {
 
   ActorCritic model_;
   PpoConfig c_;
-  int64_t ntasks_;  // > 0: advantages normalised per task
+  int64_t ntasks_;  // > 0: advantages or returns normalised per task
   FlatAdam opt_;
   StageTimer timer_;
   torch::Tensor sums_;  // policy loss, value loss, entropy, clip fraction, KL (float64)

@@ -1,5 +1,5 @@
 // The width of a suite pack's one-hot task id, for the learners that read each row's task from
-// it (mtsac's temperatures, mtppo's per-task advantages).
+// it (mtsac's temperatures, mtppo's per-task advantages and returns).
 #pragma once
 
 #include <cstdint>

@@ -191,7 +191,8 @@ class Td3Algorithm final : public Algorithm {
       c10::cuda::CUDAStreamGuard on_side(g.stream);
       if (g.warm && !g.graph) {
         g.graph = capture_cuda_graph(
-            g.stream, [&] { gradient_steps(n, step0); }, "TD3's gradient steps",
+            g.stream, [&] { gradient_steps(n, step0); },
+            c_.twin ? "TD3's gradient steps" : "DDPG's gradient steps",
             c_.twin ? "td3.cuda_graph" : "ddpg.cuda_graph");
         if (!g.graph) c_.cuda_graph = false;
       }

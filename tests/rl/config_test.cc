@@ -124,6 +124,25 @@ TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected an
   y.insert(at + 6, "  advantage_norm: task\n");
   require_config_error([=] { rl::parse_train_config(y, "x.yaml"); }, "ppo.advantage_norm", "mtppo",
                        "task");
+  // returns normalised per task: multi-task PPO's value_norm: task; a bool elsewhere
+  require_config_error(res({"ppo.value_norm=task"}), "ppo.value_norm", "mtppo", "task");
+  require_config_error(res({"ppo.value_norm=maybe"}), "ppo.value_norm", "true, false or task",
+                       "maybe");
+  require_config_error(mt({"ppo.value_norm=each"}), "ppo.value_norm", "task", "each");
+  {
+    const auto c = rl::parse_train_config(
+        rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4",
+                               {"ppo.value_norm=task"}),
+        "x.yaml");
+    CHECK(c.ppo.value_norm);
+    CHECK(c.ppo.value_norm_task);
+    const auto plain = rl::parse_train_config(
+        rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4",
+                               {"ppo.value_norm=yes"}),
+        "x.yaml");
+    CHECK(plain.ppo.value_norm);  // yaml-cpp's other spellings of a bool still read
+    CHECK_FALSE(plain.ppo.value_norm_task);
+  }
   require_config_error(res({"ppo.hidden=[]"}), "ppo.hidden", "at least one", "[]");
   require_config_error(res({"train.device=tpu"}), "train.device", "cuda", "tpu");
   require_config_error(res({"env.slots=2", "ppo.horizon=1", "ppo.minibatches=4"}),

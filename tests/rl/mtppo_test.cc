@@ -116,6 +116,33 @@ TEST_CASE("mtppo normalises advantages within each task when asked", "[rl][mtppo
   CHECK(first_loss[0] != first_loss[1]);
 }
 
+TEST_CASE("mtppo normalises the returns within each task when asked", "[rl][mtppo]") {
+  // value_norm: task keeps one running mean and variance per task of the pack (ppo_test checks
+  // them against each task's returns): the run trains, keeps the setting, and is not the run
+  // with one normaliser
+  test::TaskTempDir tmp;
+  const std::string dir = tmp.file("mt4-value-task");
+  auto r = rl::train_new(tiny_suite_yaml("MT4", {"train.steps=128", "ppo.value_norm=task"}), dir,
+                         test::quiet());
+  CHECK(r.updates == 2);
+  CHECK(read_file(dir + "/config.yaml").find("value_norm: task") != std::string::npos);
+  CHECK(rl::parse_train_config(read_file(dir + "/config.yaml"), dir).ppo.value_norm_task);
+  // and the same run with one normaliser is another run
+  const std::string one = tmp.file("mt4-value-one");
+  rl::train_new(tiny_suite_yaml("MT4", {"train.steps=128", "ppo.value_norm=true"}), one,
+                test::quiet());
+  std::vector<std::string> ca, cb;
+  std::vector<std::vector<double>> ra, rb;
+  rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, ca, ra);
+  rl::parse_metrics_csv(read_file(one + "/metrics.csv"), one, cb, rb);
+  const auto at = std::find(ca.begin(), ca.end(), "value_loss") - ca.begin();
+  REQUIRE(at < static_cast<long>(ca.size()));
+  REQUIRE(ra.size() == 2);
+  REQUIRE(rb.size() == 2);
+  CHECK(std::isfinite(ra[0][at]));
+  CHECK(ra[0][at] != rb[0][at]);
+}
+
 TEST_CASE("bidex train records task and suite runs in the registry", "[rl][mtppo][registry]") {
   test::TaskTempDir tmp;
   const std::string reg = tmp.file("reg.sqlite");

@@ -504,6 +504,88 @@ TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the ba
   CHECK(mean_a0() > start + 0.3);
 }
 
+TEST_CASE("grouped running norms keep each group's moments apart", "[rl][ppo]") {
+  torch::manual_seed(9);
+  rl::RunningNorm grouped(3, 1e9, true), g0(1, 1e9), g2(1, 1e9);
+  for (int k = 0; k < 3; ++k) {  // three batches; group 1 never appears
+    const auto groups = torch::tensor({0, 2, 0, 2, 2, 0, 0}, torch::kLong);
+    const auto x = torch::randn({7}) * (k + 1) + 10 * groups.to(torch::kFloat32);
+    grouped->update(x, groups);
+    g0->update(x.index({groups == 0}).unsqueeze(1));
+    g2->update(x.index({groups == 2}).unsqueeze(1));
+  }
+  // the same moments as a normaliser that saw only that group's rows
+  const auto probe = torch::tensor({1.5f, -2.f, 30.f});
+  const auto on0 = grouped->normalize(probe, torch::zeros({3}, torch::kLong));
+  const auto on2 = grouped->normalize(probe, torch::full({3}, 2, torch::kLong));
+  CHECK(torch::allclose(on0, g0->normalize(probe.unsqueeze(1)).squeeze(1), 1e-5, 1e-5));
+  CHECK(torch::allclose(on2, g2->normalize(probe.unsqueeze(1)).squeeze(1), 1e-5, 1e-5));
+  // an unseen group keeps its start (mean 0, variance 1); denormalize inverts normalize
+  const auto on1 = grouped->normalize(probe, torch::ones({3}, torch::kLong));
+  CHECK(torch::allclose(on1, probe, 1e-4, 1e-4));
+  const auto mixed = torch::tensor({0, 1, 2}, torch::kLong);
+  CHECK(torch::allclose(grouped->denormalize(grouped->normalize(probe, mixed), mixed), probe,
+                        1e-5, 1e-4));
+  CHECK(grouped->count() == Approx(21).margin(1e-3));
+  // undefined groups: a one-dimensional normaliser on scalars, as before
+  rl::RunningNorm one(1, 1e9), ref(1, 1e9);
+  const auto x = torch::randn({5});
+  one->update(x, torch::Tensor());
+  ref->update(x.unsqueeze(1));
+  CHECK(torch::allclose(one->normalize(x, torch::Tensor()),
+                        ref->normalize(x.unsqueeze(1)).squeeze(1)));
+}
+
+TEST_CASE("PPO with value_norm per task normalises each task's returns by its own moments",
+          "[rl][ppo]") {
+  // two tasks, one-hot ids ending the observation; task 1's rewards are 100 times task 0's
+  rl::PpoConfig c;
+  c.hidden = {16};
+  c.epochs = 1;
+  c.minibatches = 2;
+  c.obs_norm = false;
+  c.value_norm = c.value_norm_task = true;
+  const int64_t T = 4, N = 16, D = 4, A = 2, ntasks = 2;
+  torch::manual_seed(12);
+  rl::ActorCritic m(D, A, c, ntasks);
+  rl::Ppo ppo(m, c, ntasks);
+  rl::Rollout r(T, N, D, A, torch::Device(torch::kCPU));
+  torch::NoGradGuard ng;
+  auto task = (torch::arange(N) % 2).to(torch::kLong);  // slot s runs task s % 2
+  auto obs = torch::randn({T, N, D});
+  obs.narrow(2, D - ntasks, ntasks).copy_(
+      torch::one_hot(task, ntasks).to(torch::kFloat32).expand({T, N, ntasks}));
+  r.nobs.copy_(obs);
+  r.log_std.copy_(m->log_std());
+  auto mu = m->mean(obs);
+  auto a = mu + torch::exp(r.log_std) * torch::randn({T, N, A});
+  r.actions.copy_(a);
+  r.mu.copy_(mu);
+  r.values.copy_(m->value(obs));
+  r.logp.copy_(rl::gaussian_log_prob(a, mu, r.log_std));
+  r.rewards.copy_(torch::rand({T, N}) * torch::where(task == 1, 100.0, 1.0));
+  const auto last = m->value(obs[T - 1]);
+  torch::GradMode::set_enabled(true);
+  ppo.update(r, last);
+  torch::GradMode::set_enabled(false);
+  // the returns the update saw: GAE's targets, by task
+  const auto ret = rl::gae(r.rewards, r.values, r.dones, last, c.gamma, c.lambda).second;
+  for (int64_t k = 0; k < ntasks; ++k) {
+    const auto rows = ret.index({torch::indexing::Slice(), task == k}).reshape({-1});
+    rl::RunningNorm want(1, 1e9);
+    want->update(rows.unsqueeze(1));
+    const auto probe = torch::tensor({0.f, 50.f});
+    const auto ids = torch::full({2}, k, torch::kLong);
+    INFO("task " << k);
+    CHECK(torch::allclose(m->value_norm()->normalize(probe, ids),
+                          want->normalize(probe.unsqueeze(1)).squeeze(1), 1e-4, 1e-4));
+  }
+  // and the critic's values come back in each task's own units
+  const auto raw = m->raw_value(obs[0]);
+  CHECK(torch::allclose(m->value(obs[0]), m->value_norm()->denormalize(raw, task)));
+  CHECK(torch::equal(m->value_groups(obs[0]), task));
+}
+
 TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]") {
   rl::TrainConfig tc;
   tc.ppo.hidden = {16};
