@@ -1,6 +1,7 @@
 #include "rl/policy.h"
 
 #include <cmath>
+#include <utility>
 
 namespace bidex::rl {
 
@@ -42,9 +43,15 @@ torch::Tensor RunningNormImpl::denormalize(const torch::Tensor& x) const {
 }
 
 namespace {
-// per-group values [G] at groups of any shape
-torch::Tensor at_groups(const torch::Tensor& values, const torch::Tensor& groups) {
-  return values.index_select(0, groups.reshape({-1})).reshape(groups.sizes());
+// A grouped normaliser's mean and standard deviation at groups of any shape, in `type`.
+std::pair<torch::Tensor, torch::Tensor> moments_at(const torch::Tensor& mean,
+                                                   const torch::Tensor& var,
+                                                   const torch::Tensor& groups,
+                                                   torch::ScalarType type) {
+  auto at = [&](const torch::Tensor& v) {
+    return v.index_select(0, groups.reshape({-1})).reshape(groups.sizes());
+  };
+  return {at(mean).to(type), (at(var) + 1e-8).sqrt().to(type)};
 }
 }  // namespace
 
@@ -67,16 +74,14 @@ void RunningNormImpl::update(const torch::Tensor& x, const torch::Tensor& groups
 torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x,
                                          const torch::Tensor& groups) const {
   if (!groups.defined()) return normalize(x.unsqueeze(-1)).squeeze(-1);
-  const auto m = at_groups(mean_, groups).to(x.scalar_type());
-  const auto s = (at_groups(var_, groups) + 1e-8).sqrt().to(x.scalar_type());
+  const auto [m, s] = moments_at(mean_, var_, groups, x.scalar_type());
   return ((x - m) / s).clamp(-clip_, clip_);
 }
 
 torch::Tensor RunningNormImpl::denormalize(const torch::Tensor& x,
                                            const torch::Tensor& groups) const {
   if (!groups.defined()) return denormalize(x.unsqueeze(-1)).squeeze(-1);
-  const auto m = at_groups(mean_, groups).to(x.scalar_type());
-  const auto s = (at_groups(var_, groups) + 1e-8).sqrt().to(x.scalar_type());
+  const auto [m, s] = moments_at(mean_, var_, groups, x.scalar_type());
   return x * s + m;
 }
 
