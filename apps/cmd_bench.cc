@@ -166,8 +166,9 @@ void add_bench_command(CLI::App& app) {
       ->check(CLI::PositiveNumber)->capture_default_str();
   pack->add_option("--seed", pc->seed, "Seed")->capture_default_str();
   pack->add_option("--device", pc->device,
-                   "cpu (MuJoCo, all cores) or cuda (MuJoCo Warp: a scene per task, each on its "
-                   "own stream)")
+                   "cpu (MuJoCo, all cores) or cuda (MuJoCo Warp: scenes of one topology share "
+                   "a backend, each backend on its own stream; the pack is also measured with "
+                   "one backend per scene)")
       ->check(CLI::IsMember({"cpu", "cuda"}))->capture_default_str();
   pack->add_option("--out,-o", *pack_out, "Write the JSON here (atomically) instead of stdout");
   pack->footer("Example:\n  bidex bench pack --suite MT4 --slots 64 --seconds 0.5 --rounds 1");

@@ -1,8 +1,9 @@
 // Packed throughput: slot-steps/s of a suite's pack (every task of its train split in one batched
 // instance) against each of its tasks alone at the same slot count, measured in one run with
-// random actions, on the CPU (one parallel loop over all slots) or the GPU (one MuJoCo Warp
-// scene per task, stepped concurrently on streams; actions drawn on the device). The target:
-// packed >= 0.8 x the mean single-task rate.
+// random actions, on the CPU (one parallel loop over all slots) or the GPU (a MuJoCo Warp backend
+// per scene topology, stepped concurrently on streams; actions drawn on the device; the pack is
+// also measured with one backend per scene). The target: packed >= 0.8 x the mean single-task
+// rate.
 #pragma once
 
 #include <cstdint>
@@ -20,7 +21,7 @@ struct PackBenchConfig {
   int warmup_steps = 5;
   int rounds = 2;               // packed, singles, packed, singles...: the best of each kept
   uint64_t seed = 1;
-  std::string device = "cpu";   // cpu (TaskPack), or cuda (WarpPack: each scene on its stream)
+  std::string device = "cpu";   // cpu (TaskPack), or cuda (WarpPack: a backend per topology)
   bool progress = true;
 };
 

@@ -42,9 +42,17 @@ std::string warp_missing() {
 struct WarpBackend::Impl {};
 
 WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
-    : model_(&model), nworld_(nworld), options_(std::move(options)) {
+    : WarpBackend(std::vector<const SimModel*>{&model}, std::vector<int>{nworld},
+                  std::move(options)) {}
+WarpBackend::WarpBackend(const std::vector<const SimModel*>& scenes, const std::vector<int>&,
+                         WarpOptions options)
+    : model_(scenes.empty() ? nullptr : scenes[0]), options_(std::move(options)) {
   throw DeviceError(warp_missing());
 }
+std::vector<int> WarpBackend::topology_groups(const std::vector<const SimModel*>&) {
+  throw DeviceError(warp_missing());
+}
+WorldArray WarpBackend::rows(const std::string&, int, int) const { return {}; }
 WarpBackend::~WarpBackend() = default;
 bool WarpBackend::on_gpu() const { return false; }
 WorldArray WarpBackend::array(const std::string&) const { return {}; }
@@ -55,8 +63,8 @@ void WarpBackend::random_inputs(uint64_t, int64_t, double, double) {}
 void WarpBackend::raw_step() {}
 void WarpBackend::random_fill(const std::string&, uint64_t, int64_t, float, float) {}
 void WarpBackend::synchronize() {}
-void WarpBackend::download_bytes(const std::string&, void*, size_t) const {}
-void WarpBackend::upload_bytes(const std::string&, const void*, size_t) {}
+void WarpBackend::download_bytes(const std::string&, void*, size_t, int) const {}
+void WarpBackend::upload_bytes(const std::string&, const void*, size_t, int) {}
 WorldArray WarpBackend::allocate(const std::string&, int, size_t, int) { return {}; }
 uintptr_t WarpBackend::stream() const { return 0; }
 size_t WarpBackend::device_bytes() const { return 0; }
@@ -159,33 +167,85 @@ struct WarpBackend::Impl {
   }
 };
 
+namespace {
+
+// The hands' base bodies a base wrench acts on (-1: a fixed base).
+std::vector<int> root_bodies(const SimModel& model) {
+  std::vector<int> roots;
+  for (const auto& h : model.hands()) roots.push_back(h.free_base ? h.root_body : -1);
+  return roots;
+}
+
+// The scenes' compiled models as temporary files, removed with this object.
+struct SavedModels {
+  std::vector<std::string> paths;
+  explicit SavedModels(const std::vector<const SimModel*>& scenes) {
+    for (const SimModel* s : scenes) paths.push_back(save_model(s->mj()));
+  }
+  ~SavedModels() {
+    for (const auto& p : paths) std::remove(p.c_str());
+  }
+};
+
+}  // namespace
+
 WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
-    : model_(&model), nworld_(nworld), options_(std::move(options)), impl_(new Impl) {
-  if (nworld < 1) throw Error("GPU backend: nworld must be >= 1, got " + std::to_string(nworld));
-  if (options_.njmax <= 0) options_.njmax = model.physics().gpu.njmax;
-  if (options_.nconmax <= 0) options_.nconmax = model.physics().gpu.nconmax;
+    : WarpBackend(std::vector<const SimModel*>{&model}, std::vector<int>{nworld},
+                  std::move(options)) {}
+
+WarpBackend::WarpBackend(const std::vector<const SimModel*>& scenes,
+                         const std::vector<int>& worlds, WarpOptions options)
+    : model_(scenes.empty() ? nullptr : scenes[0]), scene_worlds_(worlds),
+      options_(std::move(options)), impl_(new Impl) {
+  if (scenes.empty() || scenes.size() != worlds.size())
+    throw Error("GPU backend: " + std::to_string(scenes.size()) + " scenes and " +
+                std::to_string(worlds.size()) + " world counts; expected one count per scene");
+  const SimModel& model = *scenes[0];
+  int njmax = 0, nconmax = 0;
+  for (size_t k = 0; k < scenes.size(); ++k) {
+    if (worlds[k] < 1)
+      throw Error("GPU backend: nworld must be >= 1, got " + std::to_string(worlds[k]) +
+                  (scenes.size() > 1 ? " for scene " + std::to_string(k) : ""));
+    nworld_ += worlds[k];
+    const PhysicsOptions& p = scenes[k]->physics();
+    njmax = std::max(njmax, p.gpu.njmax);
+    nconmax = std::max(nconmax, p.gpu.nconmax);
+    auto differ = [&](const std::string& what, const std::string& a, const std::string& b) {
+      throw Error("GPU backend: scenes 0 and " + std::to_string(k) + " cannot share worlds: " +
+                  what + " " + a + " against " + b);
+    };
+    if (p.substeps != model.physics().substeps)
+      differ("substeps", std::to_string(model.physics().substeps), std::to_string(p.substeps));
+    if (p.max_speed != model.physics().max_speed)
+      differ("max_speed", std::to_string(model.physics().max_speed),
+             std::to_string(p.max_speed));
+    if (root_bodies(*scenes[k]) != root_bodies(model))
+      differ("hand bases (free or fixed, root bodies)", "scene 0's", "scene " + std::to_string(k) + "'s");
+  }
+  if (options_.njmax <= 0) options_.njmax = njmax;
+  if (options_.nconmax <= 0) options_.nconmax = nconmax;
   if (options_.device.rfind("cuda", 0) == 0) require_gpu();
   ensure_python();
   py::gil_scoped_acquire gil;
   py::module_ mod = import_bridge();
 
-  std::vector<int> roots;
-  for (const auto& h : model.hands()) roots.push_back(h.free_base ? h.root_body : -1);
-  const std::string mjb = save_model(model.mj());
+  const SavedModels mjb(scenes);
   try {
-    impl_->bridge = mod.attr("Bridge")(mjb, nworld, model.physics().substeps, options_.njmax,
-                                       options_.nconmax, model.physics().max_speed, roots,
+    impl_->bridge = mod.attr("Bridge")(mjb.paths, worlds, model.physics().substeps,
+                                       options_.njmax, options_.nconmax,
+                                       model.physics().max_speed, root_bodies(model),
                                        options_.device, options_.sensors_every_substep);
   } catch (const py::error_already_set& e) {
-    std::remove(mjb.c_str());
-    throw DeviceError("GPU backend: MuJoCo Warp could not set up " + std::to_string(nworld) +
-                      " worlds on '" + options_.device + "': " + describe(e));
+    throw DeviceError("GPU backend: MuJoCo Warp could not set up " + std::to_string(nworld_) +
+                      " worlds" +
+                      (scenes.size() > 1 ? " of " + std::to_string(scenes.size()) + " scenes" : "") +
+                      " on '" + options_.device + "': " + describe(e));
   }
-  std::remove(mjb.c_str());
 
   auto arrays = impl_->bridge.attr("arrays")().cast<std::map<std::string, py::tuple>>();
   for (auto& [name, t] : arrays)
-    impl_->arrays[name] = {t[0].cast<uintptr_t>(), t[1].cast<int>(), t[2].cast<int>()};
+    impl_->arrays[name] = {t[0].cast<uintptr_t>(), t[1].cast<int>(), t[2].cast<int>(),
+                           t[3].cast<size_t>()};
   auto s = impl_->bridge.attr("stream")().cast<std::pair<uintptr_t, uintptr_t>>();
   impl_->stream = {s.first, s.second};
   impl_->gpu = s.second != 0 || s.first != 0;
@@ -204,12 +264,36 @@ WarpBackend::WarpBackend(const SimModel& model, int nworld, WarpOptions options)
 
 WarpBackend::~WarpBackend() = default;
 
+std::vector<int> WarpBackend::topology_groups(const std::vector<const SimModel*>& scenes) {
+  ensure_python();
+  py::gil_scoped_acquire gil;
+  py::module_ mod = import_bridge();
+  const SavedModels mjb(scenes);
+  try {
+    return mod.attr("topology_groups")(mjb.paths).cast<std::vector<int>>();
+  } catch (const py::error_already_set& e) {
+    throw DeviceError("GPU backend: comparing " + std::to_string(scenes.size()) +
+                      " scenes' MuJoCo Warp models failed: " + describe(e));
+  }
+}
+
 bool WarpBackend::on_gpu() const { return impl_->gpu; }
 
 WorldArray WarpBackend::array(const std::string& name) const {
   auto it = impl_->arrays.find(name);
   if (it == impl_->arrays.end()) throw Error("GPU backend: no array named '" + name + "'");
   return it->second;
+}
+
+WorldArray WarpBackend::rows(const std::string& name, int first, int count) const {
+  WorldArray a = array(name);
+  if (first < 0 || count < 0 || first + count > a.rows)
+    throw Error("GPU backend: rows " + std::to_string(first) + " to " +
+                std::to_string(first + count) + " of '" + name + "', which has " +
+                std::to_string(a.rows));
+  a.ptr += static_cast<uintptr_t>(first) * a.row_bytes;
+  a.rows = count;
+  return a;
 }
 
 void WarpBackend::step() { impl_->run(kStep); }
@@ -242,8 +326,26 @@ void WarpBackend::synchronize() {
   impl_->bridge.attr("synchronize")();
 }
 
-void WarpBackend::download_bytes(const std::string& name, void* dst, size_t bytes) const {
-  const WorldArray a = array(name);
+namespace {
+
+// The address of row `first_row` of `a`, checked against copying `bytes` from there.
+uintptr_t copy_address(const std::string& name, const WorldArray& a, size_t bytes,
+                       int first_row) {
+  const size_t start = static_cast<size_t>(std::max(first_row, 0)) * a.row_bytes;
+  const size_t size = static_cast<size_t>(a.rows) * a.row_bytes;
+  if (first_row < 0 || start + bytes > size)
+    throw Error("GPU backend: a copy of " + std::to_string(bytes) + " bytes from row " +
+                std::to_string(first_row) + " of '" + name + "' passes its end (" +
+                std::to_string(size) + " bytes)");
+  return a.ptr + start;
+}
+
+}  // namespace
+
+void WarpBackend::download_bytes(const std::string& name, void* dst, size_t bytes,
+                                 int first_row) const {
+  WorldArray a = array(name);
+  a.ptr = copy_address(name, a, bytes, first_row);
   if (impl_->gpu) {
     cuda::copy_to_host(impl_->stream, dst, a.ptr, bytes);
   } else {
@@ -252,8 +354,10 @@ void WarpBackend::download_bytes(const std::string& name, void* dst, size_t byte
   }
 }
 
-void WarpBackend::upload_bytes(const std::string& name, const void* src, size_t bytes) {
-  const WorldArray a = array(name);
+void WarpBackend::upload_bytes(const std::string& name, const void* src, size_t bytes,
+                               int first_row) {
+  WorldArray a = array(name);
+  a.ptr = copy_address(name, a, bytes, first_row);
   if (impl_->gpu) {
     cuda::copy_to_device(impl_->stream, a.ptr, src, bytes);
   } else {
@@ -271,7 +375,7 @@ WorldArray WarpBackend::allocate(const std::string& name, int width, size_t elem
   const auto ptr =
       impl_->bridge.attr("alloc")(name, static_cast<int64_t>(width * elem_bytes), rows)
           .cast<uintptr_t>();
-  return impl_->arrays[name] = {ptr, rows, width};
+  return impl_->arrays[name] = {ptr, rows, width, static_cast<size_t>(std::max<size_t>(width * elem_bytes, 1))};
 }
 
 uintptr_t WarpBackend::stream() const { return impl_->gpu ? impl_->stream.stream : 0; }

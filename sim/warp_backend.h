@@ -1,4 +1,5 @@
-// WarpBackend: the worlds of one SimModel on MuJoCo Warp (GPU.md's design, sim/README.md).
+// WarpBackend: the worlds of one SimModel, or of several scenes of one topology, on MuJoCo Warp
+// (GPU.md's design, sim/README.md).
 //
 // Python runs at construction only: it loads the same compiled model (a binary copy of SimModel's
 // mjModel), puts it on the device, allocates the worlds and captures three passes as CUDA
@@ -38,6 +39,7 @@ struct WorldArray {
   uintptr_t ptr = 0;  // device address (host address on Warp's CPU device)
   int rows = 0;
   int width = 0;
+  size_t row_bytes = 0;  // bytes from one row to the next
 };
 
 // Whether this build can make a WarpBackend, and if not why (names what to install).
@@ -52,12 +54,23 @@ class WarpBackend {
   // Throws DeviceError naming what is missing (this build's Python embedding, the mujoco,
   // warp-lang or mujoco-warp packages, a GPU) and how to install it.
   WarpBackend(const SimModel& model, int nworld, WarpOptions options = {});
+  // Several scenes of one topology (topology_groups) stepped as one MuJoCo Warp Model: scene
+  // k's worlds[k] worlds follow scene k-1's, and the fields in which the scenes differ (body
+  // poses, joint axes, initial positions, ...) hold per-world values. The scenes' physics
+  // settings must agree (substeps, speed limit, hand bases); each world's room is the largest
+  // of theirs. Throws Error naming what differs.
+  WarpBackend(const std::vector<const SimModel*>& scenes, const std::vector<int>& worlds,
+              WarpOptions options = {});
+  // Groups scenes that one backend can step: each scene's group, numbered by first appearance
+  // (sim/warp_bridge.py, topology_groups). Throws DeviceError as the constructor does.
+  static std::vector<int> topology_groups(const std::vector<const SimModel*>& scenes);
   ~WarpBackend();
   WarpBackend(const WarpBackend&) = delete;
   WarpBackend& operator=(const WarpBackend&) = delete;
 
-  const SimModel& model() const { return *model_; }
+  const SimModel& model() const { return *model_; }  // the first scene
   int nworld() const { return nworld_; }
+  const std::vector<int>& scene_worlds() const { return scene_worlds_; }
   bool on_gpu() const;
   const WarpOptions& options() const { return options_; }
 
@@ -67,6 +80,8 @@ class WarpBackend {
   // every FaultBit the world has met), fault_count and overflow_count (int64 per world), rows_max (int32: the most constraint rows the world has
   // needed at the end of a step), reset (int32: 1 marks a world for the next reset).
   WorldArray array(const std::string& name) const;
+  // Rows [first, first + count) of a named array (one scene's worlds); throws Error outside it.
+  WorldArray rows(const std::string& name, int first, int count) const;
 
   // One control step of every world, then the fault check, which marks faulty worlds in `reset`.
   // Asynchronous on a GPU: it returns once the work is queued on the backend's stream.
@@ -93,13 +108,14 @@ class WarpBackend {
   // it are ordered with the passes.
   uintptr_t stream() const;
 
-  // Copies between an array and host memory (tests, summaries; waits for the stream).
+  // Copies between an array and host memory (tests, summaries; waits for the stream), the
+  // bytes ones from row `first_row` on; a copy past the array's end is an Error.
   std::vector<float> download(const std::string& name) const;
   template <class T>
   std::vector<T> download_as(const std::string& name) const;
   void upload(const std::string& name, const std::vector<float>& values);
-  void upload_bytes(const std::string& name, const void* src, size_t bytes);
-  void download_bytes(const std::string& name, void* dst, size_t bytes) const;
+  void upload_bytes(const std::string& name, const void* src, size_t bytes, int first_row = 0);
+  void download_bytes(const std::string& name, void* dst, size_t bytes, int first_row = 0) const;
 
   // Faults and overflows over all worlds since construction (copies two arrays to the host).
   int64_t total_faults() const;
@@ -124,6 +140,7 @@ class WarpBackend {
   struct Impl;
   const SimModel* model_;
   int nworld_ = 0;
+  std::vector<int> scene_worlds_;
   WarpOptions options_;
   std::unique_ptr<Impl> impl_;
 };

@@ -7,6 +7,7 @@ those graphs and its own kernels on the same stream; no Python runs per step on 
 On Warp's CPU device there are no graphs: the C++ side calls step() and the reset passes here.
 """
 
+import dataclasses
 import time
 
 import mujoco
@@ -166,32 +167,149 @@ def _random_fill(seed: int, step: int, lo: float, hi: float, out: wp.array2d(dty
     out[w, k] = lo + (hi - lo) * wp.randf(state)
 
 
-class Bridge:
-  """One scene's worlds on one Warp device."""
+def _batched(model_type, name):
+  """Whether a field of a MuJoCo Warp dataclass takes per-world values (leading size "*")."""
+  for f in dataclasses.fields(model_type):
+    if f.name == name:
+      shape = getattr(f.type, "shape", ())
+      return bool(shape) and shape[0] == "*"
+  return False
 
-  def __init__(self, mjb_path, nworld, substeps, njmax, nconmax, max_speed, root_bodies, device,
+
+def _values(x):
+  """A field's value in a comparable form: arrays as numpy, sequences and dataclasses by part."""
+  if isinstance(x, wp.array):
+    return ("array", x.numpy())
+  if dataclasses.is_dataclass(x):
+    return ("struct", {f.name: _values(getattr(x, f.name)) for f in dataclasses.fields(x)})
+  if isinstance(x, (tuple, list)):
+    return ("seq", [_values(v) for v in x])
+  return ("value", x)
+
+
+def _equal(a, b):
+  if a[0] != b[0]:
+    return False
+  if a[0] == "array":
+    return a[1].shape == b[1].shape and a[1].dtype == b[1].dtype and np.array_equal(a[1], b[1])
+  if a[0] == "struct":
+    return a[1].keys() == b[1].keys() and all(_equal(a[1][k], b[1][k]) for k in a[1])
+  if a[0] == "seq":
+    return len(a[1]) == len(b[1]) and all(_equal(x, y) for x, y in zip(a[1], b[1]))
+  return type(a[1]) is type(b[1]) and a[1] == b[1]
+
+
+def _fields(model):
+  """A Model's fields as {(owner, name): (batched, value)}: owner is "" for the Model's own
+  fields, else the nested dataclass (its options) that holds the field."""
+  out = {}
+  for f in dataclasses.fields(model):
+    x = getattr(model, f.name)
+    if dataclasses.is_dataclass(x) and not isinstance(x, wp.array):
+      for g in dataclasses.fields(x):
+        out[(f.name, g.name)] = (_batched(type(x), g.name), _values(getattr(x, g.name)))
+    else:
+      out[("", f.name)] = (_batched(type(model), f.name), _values(x))
+  return out
+
+
+def _differences(base, other):
+  """The fields in which two scenes' models (as _fields gives them) differ: (owner, name,
+  batched)."""
+  return [(owner, name, batched) for (owner, name), (batched, value) in base.items()
+          if not _equal(value, other[(owner, name)][1])]
+
+
+def _put_models(mjms):
+  models = []
+  for mjm in mjms:
+    m = mjw.put_model(mjm)
+    # set on every scene alike (Bridge.__init__), so the comparison sees the stepped options
+    m.opt.warn_overflow = 0
+    m.opt.disableflags = m.opt.disableflags | int(mjw.DisableBit.NATIVECCD)
+    models.append(m)
+  return models
+
+
+def topology_groups(mjb_paths):
+  """Groups scenes that one MuJoCo Warp Model can step: scenes whose models differ only in
+  fields it takes per world (body and joint poses, axes, initial positions, ...). Returns each
+  scene's group, numbered by first appearance."""
+  with wp.ScopedDevice("cpu"):
+    models = [_fields(m) for m in _put_models([mujoco.MjModel.from_binary_path(p)
+                                                for p in mjb_paths])]
+  heads, out = [], []
+  for m in models:
+    for g, h in enumerate(heads):
+      if all(batched for _, _, batched in _differences(models[h], m)):
+        out.append(g)
+        break
+    else:
+      out.append(len(heads))
+      heads.append(len(out) - 1)
+  return out
+
+
+def _per_world(models, worlds):
+  """One Model for worlds of several scenes: the first scene's, with every field in which the
+  others differ replaced by per-world values (world w reads its own scene's). Raises ValueError
+  naming a field MuJoCo Warp cannot take per world."""
+  base = models[0]
+  if len(models) == 1:
+    return base
+  values = [_fields(m) for m in models]
+  fields = {}
+  for k in range(1, len(models)):
+    for owner, name, batched in _differences(values[0], values[k]):
+      if not batched:
+        raise ValueError(f"scenes 0 and {k} differ in MuJoCo Warp's field "
+                         f"{owner + '.' if owner else ''}{name}, which it cannot take per world")
+      fields[(owner, name)] = True
+  if ("", "actuator_ctrlrange") in fields:  # bidex's reset pass reads the first scene's
+    raise ValueError("the scenes differ in their actuators' control ranges")
+  for owner, name in fields:
+    parts = []
+    for m, n in zip(models, worlds):
+      a = getattr(getattr(m, owner) if owner else m, name)
+      parts.append(np.repeat(a.numpy()[:1], n, axis=0))
+    target = getattr(base, owner) if owner else base
+    setattr(target, name, wp.array(np.concatenate(parts), dtype=getattr(target, name).dtype))
+  return base
+
+
+class Bridge:
+  """The worlds of one scene, or of several scenes of one topology (topology_groups), on one
+  Warp device."""
+
+  def __init__(self, mjb_paths, worlds, substeps, njmax, nconmax, max_speed, root_bodies, device,
                sensors_every_substep=False):
-    """root_bodies: per hand, the base body a base wrench acts on (-1: a fixed base)."""
+    """mjb_paths and worlds: per scene, its compiled model and its worlds, which follow the
+    previous scene's. root_bodies: per hand, the base body a base wrench acts on (-1: a fixed
+    base)."""
     wp.init()
     if device.startswith("cuda") and not wp.is_cuda_available():
       raise RuntimeError("no CUDA device: Warp found no GPU or no working NVIDIA driver")
     self.device = wp.get_device(device)
     # a stream of its own: the scenes of a pack step concurrently (taskpack/warp_pack.h)
     self._stream = wp.Stream(self.device) if self.device.is_cuda else None
-    self.mjm = mujoco.MjModel.from_binary_path(mjb_path)
+    mjms = [mujoco.MjModel.from_binary_path(p) for p in mjb_paths]
+    self.mjm = mjms[0]
+    self.worlds = [int(n) for n in worlds]
+    nworld = sum(self.worlds)
     self.nworld = nworld
     self.substeps = substeps
     self.max_speed = max_speed
     mjm = self.mjm
     with wp.ScopedDevice(self.device):
       mjd = mujoco.MjData(mjm)
-      self.m = mjw.put_model(mjm)
-      self.m.opt.warn_overflow = 0  # overflows are counted per world (_check), not printed
-      # box-box pairs take MuJoCo's own box-box collider (MuJoCo Warp's port of it, on its
-      # primitive path, up to 8 contacts), as the CPU path's MuJoCo does, instead of MuJoCo
-      # Warp's default GJK/EPA (up to 4); the flag changes nothing else in MuJoCo Warp
-      self.m.opt.disableflags = self.m.opt.disableflags | int(mjw.DisableBit.NATIVECCD)
+      # overflows are counted per world (_check), not printed; box-box pairs take MuJoCo's own
+      # box-box collider (MuJoCo Warp's port of it, on its primitive path, up to 8 contacts), as
+      # the CPU path's MuJoCo does, instead of MuJoCo Warp's default GJK/EPA (up to 4): the
+      # NATIVECCD flag changes nothing else in MuJoCo Warp (_put_models)
+      self.m = _per_world(_put_models(mjms), self.worlds)
       self.d = mjw.put_data(mjm, mjd, nworld=nworld, njmax=njmax, nconmax=nconmax)
+      if len(mjms) > 1:  # each world from its own scene's initial state
+        mjw.reset_data(self.m, self.d)
       nwrench = 6 * len(root_bodies)
       self.root_body = wp.array(np.asarray(root_bodies, dtype=np.int32), dtype=int)
       self.has_free_base = any(b >= 0 for b in root_bodies)
@@ -394,6 +512,7 @@ class Bridge:
     return int(a.ptr)
 
   def arrays(self):
+    """Per named array: (address, rows, values per row, bytes per row)."""
     d = self.d
     named = {
       "qpos": d.qpos, "qvel": d.qvel, "ctrl": d.ctrl, "qfrc_actuator": d.qfrc_actuator,
@@ -407,7 +526,7 @@ class Bridge:
     out = {}
     for k, a in named.items():
       width = int(np.prod(a.shape[1:])) * (a.dtype._length_ if hasattr(a.dtype, "_length_") else 1)
-      out[k] = (int(a.ptr) if a.ptr else 0, int(a.shape[0]), width)
+      out[k] = (int(a.ptr) if a.ptr else 0, int(a.shape[0]), width, int(a.strides[0]))
     return out
 
   def stream(self):

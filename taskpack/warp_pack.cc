@@ -1,5 +1,7 @@
 #include "taskpack/warp_pack.h"
 
+#include <algorithm>
+
 #include "core/clock.h"
 #include "core/error.h"
 #include "tasks/registry.h"
@@ -31,6 +33,8 @@ std::string choose_pack_device(const std::string& requested, const PackSpec& spe
 
 WarpPack::WarpPack(const PackSpec& spec, const WarpPackOptions& options)
     : Pack(spec), options_(options) {
+  std::vector<std::unique_ptr<tasks::Task>> tasks;
+  std::vector<tasks::WarpEnvOptions> env_options;
   for (int g = 0; g < ngroups(); ++g) {
     const PackEntry& e = spec_.entries[g];
     tasks::WarpEnvOptions o;
@@ -39,8 +43,18 @@ WarpPack::WarpPack(const PackSpec& spec, const WarpPackOptions& options)
     o.device = options.device;
     o.hand_file = options.hand_file;
     o.physics_file = options.physics_file;
-    envs_.push_back(
-        std::make_unique<tasks::WarpTaskEnv>(tasks::make_task(e.task, e.config), o));
+    tasks.push_back(tasks::make_task(e.task, e.config));
+    env_options.push_back(o);
+  }
+  envs_ = tasks::WarpTaskEnv::make_envs(std::move(tasks), env_options, options.share_scenes);
+  for (int g = 0; g < ngroups(); ++g) {
+    const auto& members = envs_[g]->group();
+    if (members.front() != envs_[g].get()) continue;  // listed with its group's first entry
+    std::vector<int> entries;
+    for (const tasks::WarpTaskEnv* m : members)
+      for (int h = 0; h < ngroups(); ++h)
+        if (envs_[h].get() == m) entries.push_back(h);
+    backends_.push_back(entries);
   }
   assign_goals();
   for (int g = 0; g < ngroups(); ++g)
@@ -62,8 +76,9 @@ WarpPack::WarpPack(const PackSpec& spec, const WarpPackOptions& options)
     sim::WarpBackend& b = env.backend();
     // each entry reads its rows of the padded action matrix in place
     env.set_actions(actions() + static_cast<size_t>(begin_[g]) * act_dim_, act_dim_);
-    b.allocate("pack_keep", obs_pad_, 1, 1);
-    b.upload_bytes("pack_keep", keep_[g].data(), keep_[g].size());
+    const std::string keep = "pack_keep/" + std::to_string(g);  // entries may share a backend
+    const uintptr_t keep_ptr = b.allocate(keep, obs_pad_, 1, 1).ptr;
+    b.upload_bytes(keep, keep_[g].data(), keep_[g].size());
     EntryRows r;
     auto u8 = [&](const char* name) {
       return reinterpret_cast<const uint8_t*>(env.array(name).ptr);
@@ -74,7 +89,7 @@ WarpPack::WarpPack(const PackSpec& spec, const WarpPackOptions& options)
     r.terminated = u8("terminated");
     r.truncated = u8("truncated");
     r.faulted = u8("faulted");
-    r.keep = u8("pack_keep");
+    r.keep = reinterpret_cast<const uint8_t*>(keep_ptr);
     r.task_obs_dim = env.obs_dim();
     r.n = env.nslot();
     r.begin = begin_[g];
@@ -110,8 +125,24 @@ void WarpPack::write_rows() {
     for (int l = 0; l < r.n; ++l) pack_slot(r, l);
 }
 
+// The entries of backend `k`'s envs and masks from `mask` (nslot_ values, or all ones).
+void WarpPack::reset_backend(size_t k, const uint8_t* mask) {
+  std::vector<tasks::WarpTaskEnv*> envs;
+  std::vector<const uint8_t*> masks;
+  std::vector<uint8_t> ones;
+  if (!mask) {
+    ones.assign(static_cast<size_t>(nslot_), 1);
+    mask = ones.data();
+  }
+  for (int g : backends_[k]) {
+    envs.push_back(envs_[g].get());
+    masks.push_back(mask + begin_[g]);
+  }
+  tasks::WarpTaskEnv::reset_worlds(envs, masks);
+}
+
 void WarpPack::reset() {
-  for (auto& e : envs_) e->reset();
+  for (size_t k = 0; k < backends_.size(); ++k) reset_backend(k, nullptr);
   write_reset_rows();
 }
 
@@ -129,14 +160,15 @@ void WarpPack::set_autoreset(bool on) {
 }
 
 void WarpPack::reset_slots(const uint8_t* mask) {
-  for (int g = 0; g < ngroups(); ++g)
-    envs_[g]->reset_slots(std::vector<uint8_t>(mask + begin_[g], mask + begin_[g] + group_slots(g)));
+  for (size_t k = 0; k < backends_.size(); ++k) reset_backend(k, mask);
   write_rows();  // the reset worlds' rows: no reward, no end; the others' as they were
 }
 
 void WarpPack::step() {
   const double t0 = monotonic_seconds();
-  for (auto& e : envs_) e->step();  // queued on each entry's stream: the scenes overlap
+  // each backend's step (its entries' stages and one physics pass) queued on its stream: the
+  // backends overlap
+  for (const auto& entries : backends_) envs_[entries.front()]->step();
   launch_seconds_ += monotonic_seconds() - t0;
   write_rows();
 }
@@ -165,22 +197,25 @@ std::vector<tasks::EpisodeStats> WarpPack::take_stats() {
 
 int64_t WarpPack::total_faults() const {
   int64_t n = 0;
-  for (auto& e : envs_) n += e->backend().total_faults();
+  for (const auto& entries : backends_) n += envs_[entries.front()]->backend().total_faults();
   return n;
 }
 
 std::string WarpPack::room_advice() const {
   std::string out;
-  for (int g = 0; g < ngroups(); ++g) {
-    const std::string a = envs_[g]->backend().room_advice();
-    if (!a.empty()) out.append(out.empty() ? "" : "\n").append(label(g)).append(": ").append(a);
+  for (const auto& entries : backends_) {
+    const std::string a = envs_[entries.front()]->backend().room_advice();
+    if (a.empty()) continue;
+    std::string labels;
+    for (int g : entries) labels.append(labels.empty() ? "" : ", ").append(label(g));
+    out.append(out.empty() ? "" : "\n").append(labels).append(": ").append(a);
   }
   return out;
 }
 
 std::vector<WarpPack::Rows> WarpPack::rows() const {
   std::vector<Rows> out;
-  for (const auto& e : envs_) out.push_back({e->backend().max_rows(), e->backend().options().njmax});
+  for (const auto& e : envs_) out.push_back({e->max_rows(), e->backend().options().njmax});
   return out;
 }
 
@@ -191,10 +226,11 @@ void WarpPack::set_profile(bool on) {
 tasks::StageProfile WarpPack::profile() const {
   // with the profile on every stage waits, so the entries run one after another and their
   // times add up
+  // (an entry that shares a backend has its group's times in the group's first entry)
   tasks::StageProfile p;
   for (auto& e : envs_) {
     const tasks::StageProfile& q = e->profile();
-    p.steps = q.steps;
+    p.steps = std::max(p.steps, q.steps);
     p.wall += q.wall;
     p.actions += q.actions;
     p.task += q.task;

@@ -1,7 +1,9 @@
-// WarpPack: a pack on the GPU backend. Each entry's task runs as a WarpTaskEnv with its own scene
-// (its own MuJoCo Warp Model and Data) on its own CUDA stream, so the scenes of a multi-task pack
-// step concurrently; after its step each entry's rows are written into the pack's padded rows by
-// a kernel on the same stream (taskpack/pack_row.h, the same function the CPU pack calls). The
+// WarpPack: a pack on the GPU backend. Each entry's task runs as a WarpTaskEnv. Entries whose
+// scenes share one topology share one backend (one MuJoCo Warp Model with per-world values, one
+// Data; WarpPackOptions::share_scenes); every other entry has its own. Each backend steps on its
+// own CUDA stream, so the backends of a multi-task pack step concurrently; after its step each
+// entry's rows are written into the pack's padded rows by a kernel on its backend's stream
+// (taskpack/pack_row.h, the same function the CPU pack calls). The
 // pack's outputs stay in device memory, where a learner reads them in place (rl/collector.h).
 // The layout, seeds and episode statistics are the CPU pack's (taskpack/pack.h); on Warp's CPU
 // device (tests without a GPU) the same code runs with host memory.
@@ -23,6 +25,10 @@ struct WarpPackOptions {
   std::string device = "cuda";   // a Warp device: cuda, cuda:N, or cpu (tests)
   std::string hand_file;         // empty: configs/hands/shadow.yaml
   std::string physics_file;      // empty: configs/sim/physics.yaml
+  // Entries whose scenes share one topology (the catch tasks, the door tasks) step as one
+  // MuJoCo Warp Model with per-world values (tasks::WarpTaskEnv::make_envs): fewer, larger
+  // launches, the same rows. false: each entry on its own backend.
+  bool share_scenes = true;
 };
 
 class WarpPack : public Pack {
@@ -92,9 +98,11 @@ class WarpPack : public Pack {
   static float* ptr(uintptr_t p) { return reinterpret_cast<float*>(p); }
   void write_rows();  // every entry's rows, each on its entry's stream, then waits
   void write_reset_rows();  // the same after a reset: no reward, no episode ended
+  void reset_backend(size_t k, const uint8_t* mask);  // backend k's entries, mask or all
 
   WarpPackOptions options_;
   std::vector<std::unique_ptr<tasks::WarpTaskEnv>> envs_;
+  std::vector<std::vector<int>> backends_;  // per backend, its entries in world order
   std::vector<EntryRows> rows_;
   uintptr_t actions_ = 0, obs_ = 0, final_obs_ = 0, reward_ = 0, done_ = 0, bootstrap_ = 0;
   double launch_seconds_ = 0;

@@ -1,5 +1,6 @@
 #include "tasks/warp_env.h"
 
+#include <algorithm>
 #include <cstring>
 
 #include "core/clock.h"
@@ -78,20 +79,104 @@ std::string choose_device(const std::string& requested, const Task& task, std::s
   return "cpu";
 }
 
-WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
-    : task_(std::move(task)) {
+namespace {
+
+// The checks before a task's scene is built.
+void check_env(const Task& task, const WarpEnvOptions& o) {
   if (o.nslot <= 0) throw ConfigError("", "nslot", "a slot count > 0", std::to_string(o.nslot));
-  const TaskSpec& sp = task_->spec();
-  if (!runs_on_warp(*task_))
-    throw Error(sp.id + ": its stages do not run on the GPU backend yet (families there: " +
-                gpu_families() + "); use --device cpu");
-  model_ = build_task_model(*task_, o.hand_file, o.physics_file, /*on_gpu=*/true);
+  if (!runs_on_warp(task))
+    throw Error(task.spec().id + ": its stages do not run on the GPU backend yet (families "
+                "there: " + gpu_families() + "); use --device cpu");
+}
+
+sim::WarpOptions backend_options(const WarpEnvOptions& o) {
   sim::WarpOptions wo;
   wo.device = o.device;
-  backend_ = std::make_unique<sim::WarpBackend>(*model_, o.nslot, wo);
+  return wo;
+}
+
+}  // namespace
+
+WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
+    : task_(std::move(task)) {
+  check_env(*task_, o);
+  auto shared = std::make_shared<Shared>();
+  shared->models.push_back(build_task_model(*task_, o.hand_file, o.physics_file, /*on_gpu=*/true));
+  shared->backend =
+      std::make_unique<sim::WarpBackend>(*shared->models[0], o.nslot, backend_options(o));
+  join(std::move(shared), 0, 0, o);
+}
+
+WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, std::shared_ptr<Shared> shared, int member,
+                         int first, std::string prefix, const WarpEnvOptions& o)
+    : task_(std::move(task)), prefix_(std::move(prefix)) {
+  join(std::move(shared), member, first, o);
+}
+
+std::vector<std::unique_ptr<WarpTaskEnv>> WarpTaskEnv::make_envs(
+    std::vector<std::unique_ptr<Task>> tasks, const std::vector<WarpEnvOptions>& options,
+    bool share_scenes) {
+  if (tasks.size() != options.size())
+    throw Error("WarpTaskEnv::make_envs: " + std::to_string(tasks.size()) + " tasks and " +
+                std::to_string(options.size()) + " options; expected one per task");
+  const size_t n = tasks.size();
+  std::vector<std::unique_ptr<sim::SimModel>> models;
+  for (size_t k = 0; k < n; ++k) {
+    check_env(*tasks[k], options[k]);
+    if (options[k].device != options[0].device || options[k].hand_file != options[0].hand_file ||
+        options[k].physics_file != options[0].physics_file)
+      throw Error("WarpTaskEnv::make_envs: " + tasks[k]->spec().id +
+                  "'s device, hand or physics file differs from " + tasks[0]->spec().id + "'s");
+    models.push_back(build_task_model(*tasks[k], options[k].hand_file, options[k].physics_file,
+                                      /*on_gpu=*/true));
+  }
+  std::vector<int> group(n);
+  for (size_t k = 0; k < n; ++k) group[k] = static_cast<int>(k);
+  if (share_scenes && n > 1) {
+    std::vector<const sim::SimModel*> scenes;
+    for (auto& m : models) scenes.push_back(m.get());
+    group = sim::WarpBackend::topology_groups(scenes);
+  }
+  std::vector<std::unique_ptr<WarpTaskEnv>> out(n);
+  for (size_t k = 0; k < n; ++k) {
+    if (out[k]) continue;  // built with an earlier task of its group
+    std::vector<size_t> members;
+    for (size_t j = k; j < n; ++j)
+      if (group[j] == group[k]) members.push_back(j);
+    auto shared = std::make_shared<Shared>();
+    std::vector<const sim::SimModel*> scenes;
+    std::vector<int> worlds;
+    for (size_t j : members) {
+      shared->models.push_back(std::move(models[j]));
+      scenes.push_back(shared->models.back().get());
+      worlds.push_back(options[j].nslot);
+    }
+    shared->backend =
+        std::make_unique<sim::WarpBackend>(scenes, worlds, backend_options(options[k]));
+    int first = 0;
+    for (size_t i = 0; i < members.size(); ++i) {
+      const size_t j = members[i];
+      // its arrays' names: a single env's when alone on its backend
+      std::string prefix;  // (GCC 12 warns falsely of "m" + std::to_string(i))
+      if (members.size() > 1) prefix.append("m").append(std::to_string(i)).append("/");
+      out[j].reset(new WarpTaskEnv(std::move(tasks[j]), shared, static_cast<int>(i), first,
+                                   prefix, options[j]));
+      first += options[j].nslot;
+    }
+  }
+  return out;
+}
+
+void WarpTaskEnv::join(std::shared_ptr<Shared> shared, int member, int first,
+                       const WarpEnvOptions& o) {
+  shared_ = std::move(shared);
+  model_ = shared_->models.at(member).get();
+  first_ = first;
   nslot_ = o.nslot;
-  runner_ = backend_->on_gpu() ? make_cuda_runner(*task_, backend_->stream())
-                               : make_host_runner(*task_);
+  sim::WarpBackend& backend = *shared_->backend;
+  const TaskSpec& sp = task_->spec();
+  runner_ = backend.on_gpu() ? make_cuda_runner(*task_, backend.stream())
+                             : make_host_runner(*task_);
   if (!runner_)
     throw DeviceError(sp.id + ": this build has no CUDA kernels for the task stages (configure "
                       "with the CUDA toolkit's nvcc on PATH, BIDEX_CUDA=ON)");
@@ -107,9 +192,9 @@ WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
   if (a.nterms > kMaxTerms || a.act_dim > kMaxActions)
     throw Error(sp.id + ": more reward terms or actions than the stages support");
 
-  // the backend's arrays
+  // the backend's arrays: this env's rows of them
   auto f = [&](const char* name, int* width, int per) {
-    const sim::WorldArray w = backend_->array(name);
+    const sim::WorldArray w = backend.rows(name, first_, nslot_);
     if (width) *width = w.width / per;
     return reinterpret_cast<float*>(w.ptr);
   };
@@ -126,12 +211,12 @@ WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
   a.base_wrench = f("base_wrench", &a.nwrench, 1);
   a.mocap_pos = f("mocap_pos", &a.nmocap, 3);
   a.mocap_quat = f("mocap_quat", nullptr, 1);
-  a.fault = reinterpret_cast<const uint32_t*>(backend_->array("fault").ptr);
-  a.reset = reinterpret_cast<int32_t*>(backend_->array("reset").ptr);
+  a.fault = reinterpret_cast<const uint32_t*>(backend.rows("fault", first_, nslot_).ptr);
+  a.reset = reinterpret_cast<int32_t*>(backend.rows("reset", first_, nslot_).ptr);
 
   // the env's, zeroed, in the backend's memory
   auto alloc = [&](const char* name, int width, size_t elem) {
-    const sim::WorldArray w = backend_->allocate(name, width, elem);
+    const sim::WorldArray w = backend.allocate(own(name), width, elem, nslot_);
     buffers_.push_back({name, {w.ptr, width, elem}});
     return w.ptr;
   };
@@ -161,14 +246,31 @@ WarpTaskEnv::WarpTaskEnv(std::unique_ptr<Task> task, const WarpEnvOptions& o)
   // per-world random streams keyed like the CPU batch's: (seed, world, episode)
   std::vector<SlotRng> rng(nslot_);
   for (int w = 0; w < nslot_; ++w) rng[w] = SlotRng::make(o.seed, static_cast<uint32_t>(w), 0);
-  backend_->upload_bytes("rng", rng.data(), rng.size() * sizeof(SlotRng));
+  backend.upload_bytes(own("rng"), rng.data(), rng.size() * sizeof(SlotRng));
+  shared_->members.push_back(this);
   reset();
 }
 
-WarpTaskEnv::~WarpTaskEnv() = default;
+WarpTaskEnv::~WarpTaskEnv() {
+  if (!shared_) return;
+  auto& m = shared_->members;
+  m.erase(std::remove(m.begin(), m.end(), this), m.end());
+}
+
+bool WarpTaskEnv::owns(const std::string& name) const {
+  for (const auto& b : buffers_)
+    if (b.first == name) return true;
+  return false;
+}
 
 sim::WorldArray WarpTaskEnv::array(const std::string& name) const {
-  return backend_->array(name);
+  return owns(name) ? backend().array(own(name)) : backend().rows(name, first_, nslot_);
+}
+
+int WarpTaskEnv::max_rows() const {
+  int m = 0;
+  for (int32_t r : download<int32_t>("rows_max")) m = std::max(m, static_cast<int>(r));
+  return m;
 }
 
 void WarpTaskEnv::copy(const std::string& name, void* dst, size_t bytes) const {
@@ -176,12 +278,15 @@ void WarpTaskEnv::copy(const std::string& name, void* dst, size_t bytes) const {
     if (n == name && bytes != static_cast<size_t>(nslot_) * b.width * b.elem)
       throw Error("WarpTaskEnv: '" + name + "' holds " + std::to_string(b.elem) +
                   "-byte values; asked for another size");
-  backend_->download_bytes(name, dst, bytes);
+  if (owns(name))
+    backend().download_bytes(own(name), dst, bytes);
+  else
+    backend().download_bytes(name, dst, bytes, first_);
 }
 
 std::vector<SlotState> WarpTaskEnv::slot_states() const {
   std::vector<SlotState> st(nslot_);
-  backend_->download_bytes("state", st.data(), st.size() * sizeof(SlotState));
+  copy("state", st.data(), st.size() * sizeof(SlotState));
   return st;
 }
 
@@ -190,7 +295,7 @@ void WarpTaskEnv::edit_slot_states(F&& edit) {
   synchronize();
   std::vector<SlotState> st = slot_states();
   edit(st.data());  // throws before the upload: then no state has changed
-  backend_->upload_bytes("state", st.data(), st.size() * sizeof(SlotState));
+  backend().upload_bytes(own("state"), st.data(), st.size() * sizeof(SlotState));
 }
 
 void WarpTaskEnv::set_goal_shifts(const std::vector<int>& slots,
@@ -211,36 +316,62 @@ void WarpTaskEnv::reset_slots(const std::vector<uint8_t>& mask) {
   if (mask.size() != static_cast<size_t>(nslot_))
     throw Error(spec().id + ": reset_slots expects " + std::to_string(nslot_) +
                 " mask values, got " + std::to_string(mask.size()));
-  const std::vector<int32_t> marked(mask.begin(), mask.end());
-  backend_->upload_bytes("reset", marked.data(), marked.size() * sizeof(int32_t));
-  backend_->reset_begin();
-  arrays_.clearing = 1;
-  runner_->run(Stage::kReset, arrays_, nslot_);
-  arrays_.clearing = 0;
-  backend_->reset_end();
-  runner_->run(Stage::kObserve, arrays_, nslot_);
+  reset_worlds({this}, {mask.data()});
+}
+
+void WarpTaskEnv::reset_worlds(const std::vector<WarpTaskEnv*>& envs,
+                               const std::vector<const uint8_t*>& masks) {
+  if (envs.empty()) return;
+  if (masks.size() != envs.size())
+    throw Error("WarpTaskEnv::reset_worlds: " + std::to_string(envs.size()) + " envs and " +
+                std::to_string(masks.size()) + " masks");
+  sim::WarpBackend& backend = envs[0]->backend();
+  // the backend's reset pass restarts every marked world: the others' marks are cleared
+  std::vector<int32_t> marked(static_cast<size_t>(backend.nworld()), 0);
+  for (size_t i = 0; i < envs.size(); ++i) {
+    const WarpTaskEnv& e = *envs[i];
+    if (e.shared_ != envs[0]->shared_)
+      throw Error("WarpTaskEnv::reset_worlds: " + e.spec().id + " and " + envs[0]->spec().id +
+                  " are not on one backend");
+    for (int l = 0; l < e.nslot_; ++l) marked[e.first_ + l] = masks[i][l];
+  }
+  backend.upload_bytes("reset", marked.data(), marked.size() * sizeof(int32_t));
+  backend.reset_begin();
+  for (WarpTaskEnv* e : envs) {
+    e->arrays_.clearing = 1;
+    e->runner_->run(Stage::kReset, e->arrays_, e->nslot_);
+    e->arrays_.clearing = 0;
+  }
+  backend.reset_end();
+  for (WarpTaskEnv* e : envs) e->runner_->run(Stage::kObserve, e->arrays_, e->nslot_);
 }
 
 void WarpTaskEnv::step() {
+  // every member's stage, then the backend's pass, in the order one env alone runs them
+  sim::WarpBackend& backend = this->backend();
+  const std::vector<WarpTaskEnv*>& group = shared_->members;
+  auto stage = [&](Stage s) {
+    for (WarpTaskEnv* e : group) e->runner_->run(s, e->arrays_, e->nslot_);
+  };
   const double t0 = profile_on_ ? monotonic_seconds() : 0;
-  runner_->run(Stage::kApply, arrays_, nslot_);
+  stage(Stage::kApply);
   double t1 = 0, t2 = 0;
   if (profile_on_) {
-    backend_->synchronize();
+    backend.synchronize();
     t1 = monotonic_seconds();
   }
-  backend_->step();
+  backend.step();
   if (profile_on_) {
-    backend_->synchronize();
+    backend.synchronize();
     t2 = monotonic_seconds();
   }
-  runner_->run(Stage::kEvaluate, arrays_, nslot_);
-  backend_->reset_begin();
-  runner_->run(Stage::kReset, arrays_, nslot_);
-  backend_->reset_end();
-  runner_->run(Stage::kObserve, arrays_, nslot_);
-  if (profile_on_) {
-    backend_->synchronize();
+  stage(Stage::kEvaluate);
+  backend.reset_begin();
+  stage(Stage::kReset);
+  backend.reset_end();
+  stage(Stage::kObserve);
+  if (profile_on_) {  // the group's times, in the env that stepped it
+    backend.synchronize();
     const double t3 = monotonic_seconds();
     profile_.steps += 1;
     profile_.actions += t1 - t0;
@@ -257,7 +388,7 @@ void WarpTaskEnv::set_actions(const float* actions, int stride) {
   arrays_.act_stride = stride;
 }
 
-void WarpTaskEnv::synchronize() { backend_->synchronize(); }
+void WarpTaskEnv::synchronize() { backend().synchronize(); }
 
 void WarpTaskEnv::set_profile(bool on) {
   profile_on_ = on;
@@ -270,8 +401,8 @@ void WarpTaskEnv::step(const std::vector<float>& actions) {
     throw Error(spec().id + ": step expects " + std::to_string(nslot_) + " x " +
                 std::to_string(arrays_.act_dim) + " actions, got " +
                 std::to_string(actions.size()));
-  backend_->upload_bytes("actions", actions.data(), n * sizeof(float));
-  set_actions(reinterpret_cast<const float*>(backend_->array("actions").ptr), arrays_.act_dim);
+  backend().upload_bytes(own("actions"), actions.data(), n * sizeof(float));
+  set_actions(reinterpret_cast<const float*>(array("actions").ptr), arrays_.act_dim);
   step();
 }
 
@@ -306,7 +437,7 @@ EpisodeStats WarpTaskEnv::take_stats() {
     for (const auto& [n, b] : buffers_) {
       if (n != name) continue;
       std::vector<uint8_t> zero(static_cast<size_t>(nslot_) * b.width * b.elem, 0);
-      backend_->upload_bytes(name, zero.data(), zero.size());
+      backend().upload_bytes(own(name), zero.data(), zero.size());
     }
   }
   return st;
