@@ -59,16 +59,24 @@ void RunningNormImpl::update(const torch::Tensor& x, const torch::Tensor& groups
   if (!groups.defined()) return update(x.unsqueeze(-1));
   TORCH_CHECK(count_.size(0) == mean_.size(0), "RunningNorm: groups need a grouped normaliser");
   torch::NoGradGuard ng;
-  // per group by index_add, as normalize_advantages (rl/ppo.cc): count, mean, then the squared
-  // deviations from it (population variance, as update(x))
-  const auto xd = x.detach().to(torch::kFloat64).reshape({-1});
+  // the population variance, as update(x)
+  const auto m = group_moments(x.detach().to(torch::kFloat64), groups, mean_.size(0));
+  merge_moments(count_, mean_, var_, m.count, m.mean, m.sq_dev / m.count.clamp_min(1));
+}
+
+GroupMoments group_moments(const torch::Tensor& x, const torch::Tensor& groups,
+                           int64_t ngroups) {
+  torch::NoGradGuard ng;
+  const auto xf = x.reshape({-1});
   const auto g = groups.reshape({-1});
-  const auto zeros = torch::zeros_like(mean_);
-  const auto n = zeros.index_add(0, g, torch::ones_like(xd));
-  const auto bmean = zeros.index_add(0, g, xd) / n.clamp_min(1);
-  const auto dev = xd - bmean.index_select(0, g);
-  const auto bvar = zeros.index_add(0, g, dev * dev) / n.clamp_min(1);
-  merge_moments(count_, mean_, var_, n, bmean, bvar);
+  const auto zeros = torch::zeros({ngroups}, xf.options());
+  GroupMoments m;
+  m.count = zeros.index_add(0, g, torch::ones_like(xf));
+  m.mean = zeros.index_add(0, g, xf) / m.count.clamp_min(1);
+  const auto dev = xf - m.mean.index_select(0, g);
+  m.sq_dev = zeros.index_add(0, g, dev * dev);
+  m.dev = dev.reshape(x.sizes());
+  return m;
 }
 
 torch::Tensor RunningNormImpl::normalize(const torch::Tensor& x,

@@ -41,6 +41,15 @@ class RunningNormImpl : public torch::nn::Module {
 };
 TORCH_MODULE(RunningNorm);
 
+// Moments of scalars `x` per group (`groups`: long, < ngroups, x's shape), by index_add with
+// no host read: the count, the mean, each value's deviation from its group's mean (x's shape)
+// and the sum of squared deviations. Per-task advantages (rl/ppo.cc) and a grouped RunningNorm
+// take their variances from it.
+struct GroupMoments {
+  torch::Tensor count, mean, dev, sq_dev;
+};
+GroupMoments group_moments(const torch::Tensor& x, const torch::Tensor& groups, int64_t ngroups);
+
 // A diagonal Gaussian's log-density of `a` (summed over the last axis) and its entropy.
 torch::Tensor gaussian_log_prob(const torch::Tensor& a, const torch::Tensor& mean,
                                 const torch::Tensor& log_std);

@@ -62,15 +62,10 @@ torch::Tensor normalize_advantages(const torch::Tensor& adv, const torch::Tensor
                                    int64_t ngroups) {
   torch::NoGradGuard ng;
   if (!groups.defined()) return (adv - adv.mean()) / (adv.std() + 1e-8);
-  // per group by index_add (no host read): count, mean, then the squared deviations from it
-  auto f = adv.options();
-  auto n = torch::zeros({ngroups}, f).index_add_(0, groups, torch::ones_like(adv));
-  auto s1 = torch::zeros({ngroups}, f).index_add_(0, groups, adv);
-  auto mean = s1 / n.clamp_min(1);
-  auto dev = adv - mean.index_select(0, groups);
-  auto s2 = torch::zeros({ngroups}, f).index_add_(0, groups, dev * dev);
-  auto std = (s2 / (n - 1).clamp_min(1)).sqrt();
-  return dev / (std.index_select(0, groups) + 1e-8);
+  // the sample deviation per group, as adv.std() over the whole update
+  const auto m = group_moments(adv, groups, ngroups);
+  const auto std = (m.sq_dev / (m.count - 1).clamp_min(1)).sqrt();
+  return m.dev / (std.index_select(0, groups) + 1e-8);
 }
 
 void adapt_lr(const torch::Tensor& lr, const torch::Tensor& kl, double desired_kl) {
