@@ -12,6 +12,8 @@
 
 #include "sim/batch.h"
 #include "sim/cuda_driver.h"
+#include "tasks/env.h"
+#include "tasks/registry.h"
 #include "tests/fixture.h"
 
 namespace bidex::sim {
@@ -29,6 +31,19 @@ double max_diff(const std::vector<double>& a, const std::vector<float>& b, size_
   double m = 0;
   for (size_t i = 0; i < n; ++i) m = std::max(m, std::abs(a[offset + i] - double(b[offset + i])));
   return m;
+}
+
+// A task's scene as the GPU path compiles it.
+std::unique_ptr<SimModel> task_scene(const char* id) {
+  return tasks::build_task_model(*tasks::make_task(id, ""), "", "", /*on_gpu=*/true);
+}
+
+// Every world of `w` marked, reset and through the position pass.
+void reset_all(WarpBackend& w) {
+  const std::vector<int32_t> all(static_cast<size_t>(w.nworld()), 1);
+  w.upload_bytes("reset", all.data(), all.size() * sizeof(int32_t));
+  w.reset_begin();
+  w.reset_end();
 }
 
 }  // namespace
@@ -230,6 +245,66 @@ TEST_CASE("WarpBackend says what is missing when asked for a GPU it cannot have"
   }
   o.device = "cpu";
   CHECK_THROWS_WITH(WarpBackend(model, 0, o), Catch::Contains("nworld must be >= 1, got 0"));
+}
+
+TEST_CASE("WarpBackend steps scenes of one topology as each scene's own backend, bit for bit",
+          "[warp]") {
+  // MuJoCo Warp's float32 arithmetic depends on a backend's world count (one scene at 2 worlds
+  // and at 3 differs in the last bits once contacts form), not on the packing: each scene's own
+  // backend has as many worlds as the shared one, and world w of the shared backend is compared
+  // with world w of its scene's own, under the same random inputs (keyed by world)
+  const auto a = task_scene("catch_underarm"), b = task_scene("catch_abreast");
+  WarpBackend shared({a.get(), b.get()}, {2, 2}, cpu_options());
+  WarpBackend own_a(*a, 4, cpu_options()), own_b(*b, 4, cpu_options());
+  REQUIRE(shared.nworld() == 4);
+  CHECK(shared.scene_worlds() == std::vector<int>{2, 2});
+  WarpBackend* all[] = {&shared, &own_a, &own_b};
+  for (WarpBackend* w : all) reset_all(*w);
+  auto rows = [](const WarpBackend& w, const char* name, int first, int count) {
+    const WorldArray r = w.rows(name, first, count);
+    std::vector<float> out(static_cast<size_t>(count) * r.width);
+    w.download_bytes(name, out.data(), out.size() * sizeof(float), first);
+    return out;
+  };
+  // each world starts from its own scene's state
+  CHECK(rows(shared, "qpos", 0, 2) == rows(own_a, "qpos", 0, 2));
+  CHECK(rows(shared, "qpos", 2, 2) == rows(own_b, "qpos", 2, 2));
+  CHECK(rows(shared, "xpos", 2, 2) == rows(own_b, "xpos", 2, 2));
+  CHECK(rows(shared, "xpos", 0, 1) != rows(shared, "xpos", 2, 1));  // the scenes differ
+  for (int t = 0; t < 30; ++t)
+    for (WarpBackend* w : all) {
+      w->random_inputs(7, t, 20, 2);
+      w->step();
+    }
+  for (const char* name : {"qpos", "qvel", "sensordata", "xpos"}) {
+    INFO(name);
+    CHECK(rows(shared, name, 0, 2) == rows(own_a, name, 0, 2));
+    CHECK(rows(shared, name, 2, 2) == rows(own_b, name, 2, 2));
+  }
+  CHECK(shared.total_faults() == 0);
+  CHECK_THROWS_WITH(shared.rows("qpos", 3, 2), Catch::Contains("rows 3 to 5 of 'qpos', which has 4"));
+}
+
+TEST_CASE("scenes of different topologies are refused a shared backend, naming the field",
+          "[warp]") {
+  const auto a = task_scene("catch_underarm"), b = task_scene("catch_abreast"),
+             c = task_scene("push_block");
+  CHECK(WarpBackend::topology_groups({a.get(), c.get(), b.get()}) == std::vector<int>{0, 1, 0});
+  try {
+    WarpBackend w({a.get(), c.get()}, {1, 1}, cpu_options());
+    FAIL("two topologies on one backend");
+  } catch (const DeviceError& e) {
+    CHECK_THAT(e.what(), Catch::Contains("2 scenes") && Catch::Contains("scenes 0 and 1 differ") &&
+                             Catch::Contains("cannot take per world"));
+  }
+  CHECK_THROWS_WITH(WarpBackend({a.get(), b.get()}, {1}, cpu_options()),
+                    Catch::Contains("2 scenes and 1 world counts"));
+  CHECK_THROWS_WITH(WarpBackend({a.get(), b.get()}, {1, 0}, cpu_options()),
+                    Catch::Contains("nworld must be >= 1, got 0 for scene 1"));
+  std::vector<float> too_many(100, 0.f);
+  WarpBackend w(*a, 2, cpu_options());
+  CHECK_THROWS_WITH(w.upload_bytes("ctrl", too_many.data(), too_many.size() * sizeof(float), 1),
+                    Catch::Contains("passes its end"));
 }
 
 }  // namespace bidex::sim

@@ -12,9 +12,7 @@
 #include "core/error.h"
 #include "rl/collector.h"
 #include "sim/cuda_driver.h"
-#include "sim/warp_backend.h"
 #include "taskpack/warp_pack.h"
-#include "tasks/registry.h"
 #include "tests/fixture.h"
 
 using namespace bidex;
@@ -356,27 +354,4 @@ TEST_CASE("a pack shares a backend among scenes of one topology and writes the r
   const auto ra = shared.rows();
   REQUIRE(ra.size() == 6);
   for (const auto& r : ra) CHECK(r.needed <= r.room);
-}
-
-TEST_CASE("scenes of different topologies are refused a shared backend, naming the field",
-          "[warp][sim]") {
-  auto model = [](const char* id) {
-    return tasks::build_task_model(*tasks::make_task(id, ""), "", "", /*on_gpu=*/true);
-  };
-  const auto a = model("catch_underarm"), b = model("catch_abreast"), c = model("push_block");
-  CHECK(sim::WarpBackend::topology_groups({a.get(), c.get(), b.get()}) ==
-        std::vector<int>{0, 1, 0});
-  sim::WarpOptions o;
-  o.device = "cpu";
-  try {
-    sim::WarpBackend w({a.get(), c.get()}, {1, 1}, o);
-    FAIL("two topologies on one backend");
-  } catch (const DeviceError& e) {
-    CHECK_THAT(e.what(), Catch::Contains("2 scenes") && Catch::Contains("scenes 0 and 1 differ") &&
-                             Catch::Contains("cannot take per world"));
-  }
-  CHECK_THROWS_WITH(sim::WarpBackend({a.get(), b.get()}, {1}, o),
-                    Catch::Contains("2 scenes and 1 world counts"));
-  CHECK_THROWS_WITH(sim::WarpBackend({a.get(), b.get()}, {1, 0}, o),
-                    Catch::Contains("nworld must be >= 1, got 0 for scene 1"));
 }
