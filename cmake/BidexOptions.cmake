@@ -40,21 +40,13 @@ function(bidex_library name)
 endfunction()
 
 # LibTorch is heavy to parse: the sources of a target that include it share one precompiled
-# <torch/torch.h>; the target's other sources skip it (loading a large PCH costs them time).
-# bidex_rl builds it (rl/ comes first) and the other libraries reuse it rather than building
-# their own, which took 80-100 s of a 2-core build each; executables build their own (they
-# compile with -fPIE, with which GCC refuses a library's -fPIC header).
+# <torch/torch.h>; the target's other sources skip it (loading a large PCH costs them time)
 function(bidex_torch_pch target)
   cmake_parse_arguments(ARG "" "" "SOURCES" ${ARGN})
   if(NOT BIDEX_PCH)
     return()
   endif()
-  get_target_property(_type ${target} TYPE)
-  if(target STREQUAL "bidex_rl" OR _type STREQUAL "EXECUTABLE")
-    target_precompile_headers(${target} PRIVATE <torch/torch.h>)
-  else()
-    target_precompile_headers(${target} REUSE_FROM bidex_rl)
-  endif()
+  target_precompile_headers(${target} PRIVATE <torch/torch.h>)
   get_target_property(_all ${target} SOURCES)
   foreach(_src IN LISTS _all)
     if(NOT _src IN_LIST ARG_SOURCES)
