@@ -220,7 +220,8 @@ WarpBackend::WarpBackend(const std::vector<const SimModel*>& scenes,
       differ("max_speed", std::to_string(model.physics().max_speed),
              std::to_string(p.max_speed));
     if (root_bodies(*scenes[k]) != root_bodies(model))
-      differ("hand bases (free or fixed, root bodies)", "scene 0's", "scene " + std::to_string(k) + "'s");
+      differ("hand bases (free or fixed, root bodies)", "scene 0's",
+             "scene " + std::to_string(k) + "'s");
   }
   if (options_.njmax <= 0) options_.njmax = njmax;
   if (options_.nconmax <= 0) options_.nconmax = nconmax;

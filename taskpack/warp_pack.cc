@@ -117,10 +117,10 @@ void WarpPack::write_rows() {
       if (!launch_entry_rows(rows_[g], envs_[g]->backend().stream()))
         throw DeviceError("GPU pack: this build has no CUDA kernels (configure with the CUDA "
                           "toolkit's nvcc on PATH, BIDEX_CUDA=ON)");
-    for (auto& e : envs_) e->synchronize();
+    synchronize_backends();
     return;
   }
-  for (auto& e : envs_) e->synchronize();
+  synchronize_backends();
   for (const EntryRows& r : rows_)
     for (int l = 0; l < r.n; ++l) pack_slot(r, l);
 }
@@ -139,6 +139,11 @@ void WarpPack::reset_backend(size_t k, const uint8_t* mask) {
     masks.push_back(mask + begin_[g]);
   }
   tasks::WarpTaskEnv::reset_worlds(envs, masks);
+}
+
+// One wait per backend, not per entry: entries that share a backend share its stream.
+void WarpPack::synchronize_backends() {
+  for (const auto& entries : backends_) envs_[entries.front()]->synchronize();
 }
 
 void WarpPack::reset() {

@@ -99,6 +99,7 @@ class WarpPack : public Pack {
   void write_rows();  // every entry's rows, each on its entry's stream, then waits
   void write_reset_rows();  // the same after a reset: no reward, no episode ended
   void reset_backend(size_t k, const uint8_t* mask);  // backend k's entries, mask or all
+  void synchronize_backends();
 
   WarpPackOptions options_;
   std::vector<std::unique_ptr<tasks::WarpTaskEnv>> envs_;
