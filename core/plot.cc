@@ -153,16 +153,22 @@ std::string svg(const std::vector<Panel>& panels, int width, int panel_height) {
           s += "<circle cx=\"" + num(PX(se.x[i])) + "\" cy=\"" + num(Y(se.y[i])) +
                "\" r=\"4\" fill=\"" + color + "\"/>\n";
           if (i < se.labels.size() && !se.labels[i].empty()) {
-            // right of the point, or left of it where the text would leave the panel; below
-            // the labels already placed at the same spot rather than over them
+            // right of the point, or left of it where the text would leave the panel; past
+            // the labels already placed at the same spot rather than over them, on the side
+            // where its point lies (above the first one it meets when it would stand higher,
+            // else below), so that the labels keep their points' order
             double lx = PX(se.x[i]) + 6, ly = Y(se.y[i]) - 4;
             const bool flip = lx + 6.0 * se.labels[i].size() > width;  // ~6 px a character
             if (flip) lx = PX(se.x[i]) - 6;
-            for (bool moved = true; moved;) {
+            for (bool moved = true, up = false, chosen = false; moved;) {
               moved = false;
               for (auto& [px, py] : placed)
                 if (std::abs(px - lx) < 1 && std::abs(py - ly) < 11) {
-                  ly = py + 11;
+                  if (!chosen) {
+                    up = ly < py;
+                    chosen = true;
+                  }
+                  ly = up ? py - 11 : py + 11;  // strictly one way: the loop ends
                   moved = true;
                 }
             }

@@ -103,8 +103,10 @@ TEST_CASE("a log x axis, x padding, a note, and point labels kept apart and insi
     const std::string t = tag(label);
     return std::stod(t.substr(t.find(" y=\"") + 4));
   };
-  // the two labels at 13 months, 0.01 apart, do not overlap
+  // the two labels at 13 months, 0.01 apart, do not overlap, and keep their points' order:
+  // door_b's point is the higher, so is its label (drawn after door_a's, it moves up past it)
   CHECK(std::abs(label_y("door_a") - label_y("door_b")) >= 11);
+  CHECK(label_y("door_b") < label_y("door_a"));
   // the label of the rightmost point is drawn to its left, the others to the right
   CHECK(tag("two_catch_underarm").find("text-anchor=\"end\"") != std::string::npos);
   CHECK(tag("door_a").find("text-anchor") == std::string::npos);
