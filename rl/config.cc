@@ -234,12 +234,13 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
   if (info.section == "sac") {
     auto p = v.child("sac");
     std::vector<std::string> keys = replay_keys;
-    keys.insert(keys.end(), {"init_alpha", "learn_alpha"});
+    keys.insert(keys.end(), {"init_alpha", "learn_alpha", "cuda_graph"});
     p.allow_keys(keys);
     auto& o = c.sac;
     replay_common(p, o);
     o.init_alpha = read_real(p, "init_alpha", 0, 1e3, true);
     o.learn_alpha = p.req<bool>("learn_alpha");
+    if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();  // absent before it existed
     return c;
   }
   if (info.section == "td3" || info.section == "ddpg") {

@@ -71,6 +71,9 @@ struct SacConfig {
   bool learn_alpha = true;    // learn it towards the target entropy -act_dim
   double max_grad_norm = 1.0;
   double reward_scale = 1.0;
+  // on a CUDA device, once the replay buffer is full: an update's gradient steps replayed as one
+  // CUDA graph (rl/cuda_graph.h)
+  bool cuda_graph = false;
 };
 
 // TD3 and DDPG (the `td3:` and `ddpg:` sections): the paper's tables for them. DDPG uses one

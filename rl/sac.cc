@@ -10,6 +10,10 @@
 #include "rl/replay.h"
 #include "rl/suite_tasks.h"
 
+#ifdef BIDEX_TORCH_CUDA
+#include "rl/cuda_graph.h"
+#endif
+
 namespace bidex::rl {
 
 torch::Tensor sac_q_target(const torch::Tensor& reward, const torch::Tensor& terminal,
@@ -102,8 +106,35 @@ class SacAlgorithm final : public Algorithm {
   }
 
   std::vector<double> update(const torch::Tensor&) override {
-    auto sums = torch::zeros(
-        {6}, torch::TensorOptions().dtype(torch::kFloat64).device(log_alpha_.device()));
+    const auto dev = log_alpha_.device();
+    if (!sums_.defined() || sums_.device() != dev)
+      sums_ = torch::zeros({6}, torch::TensorOptions().dtype(torch::kFloat64).device(dev));
+    bool eager = true;
+#ifdef BIDEX_TORCH_CUDA
+    // a graph replays one fixed sequence: the buffer's size (the sampled range) must be the
+    // same at every update (rl/cuda_graph.h)
+    if (c_.cuda_graph && dev.is_cuda() && replay_->size() == replay_->capacity()) {
+      eager = false;
+      if (!graph_)
+        graph_ = std::make_unique<GraphedSteps>(
+            ntasks_ > 0 ? "multi-task SAC's gradient steps" : "SAC's gradient steps",
+            "sac.cuda_graph");
+      actor_opt_->rebind();
+      critic_opt_->rebind();
+      alpha_opt_->rebind();
+      if (!graph_->run([&] { gradient_steps(); })) c_.cuda_graph = false;
+    }
+#endif
+    if (eager) gradient_steps();
+    auto m = (sums_ / c_.minibatches).to(torch::kCPU);
+    return {m[0].item<double>(), m[1].item<double>(), m[2].item<double>(), m[3].item<double>(),
+            m[4].item<double>(), m[5].item<double>()};
+  }
+
+  // An update's gradient steps, their statistics summed into sums_; nothing read back, so that
+  // a CUDA graph can capture them
+  void gradient_steps() {
+    sums_.zero_();
     for (int k = 0; k < c_.minibatches; ++k) {
       const auto b = replay_->sample(c_.batch_size);
       // each row's temperature (one task: the one), and the log of it for the temperature loss
@@ -148,14 +179,11 @@ class SacAlgorithm final : public Algorithm {
       }
       polyak_update(*critic_, *target_, c_.polyak);
       torch::NoGradGuard ng;
-      sums += torch::stack({q_loss.detach(), actor_loss.detach(), alpha_loss.detach(),
-                            -logp.detach().mean(), q1.detach().mean(),
-                            torch::exp(log_alpha_.detach()).mean()})
-                  .to(torch::kFloat64);
+      sums_ += torch::stack({q_loss.detach(), actor_loss.detach(), alpha_loss.detach(),
+                             -logp.detach().mean(), q1.detach().mean(),
+                             torch::exp(log_alpha_.detach()).mean()})
+                   .to(torch::kFloat64);
     }
-    auto m = (sums / c_.minibatches).to(torch::kCPU);
-    return {m[0].item<double>(), m[1].item<double>(), m[2].item<double>(), m[3].item<double>(),
-            m[4].item<double>(), m[5].item<double>()};
   }
 
   const std::vector<std::string>& metric_names() const override {
@@ -209,6 +237,10 @@ class SacAlgorithm final : public Algorithm {
   std::unique_ptr<FlatAdam> actor_opt_, critic_opt_, alpha_opt_;
   std::unique_ptr<ReplayBuffer> replay_;
   torch::Tensor last_obs_, last_act_;
+  torch::Tensor sums_;  // an update's statistics, summed on the device
+#ifdef BIDEX_TORCH_CUDA
+  std::unique_ptr<GraphedSteps> graph_;
+#endif
 };
 
 }  // namespace

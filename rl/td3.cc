@@ -6,11 +6,6 @@
 #include "rl/replay.h"
 
 #ifdef BIDEX_TORCH_CUDA
-#include <ATen/cuda/CUDAEvent.h>
-#include <ATen/cuda/CUDAGraph.h>
-#include <c10/cuda/CUDAGuard.h>
-#include <c10/cuda/CUDAStream.h>
-
 #include "rl/cuda_graph.h"
 #endif
 
@@ -159,55 +154,20 @@ class Td3Algorithm final : public Algorithm {
   }
 
 #ifdef BIDEX_TORCH_CUDA
-  // An update's gradient steps as one CUDA graph, as PPO's minibatch step (rl/ppo.cc): the
-  // first full-buffer update runs eagerly on a side stream, the next is captured there and
-  // replayed, and every later one replays it. The graph reads the buffer's rows where they are
-  // (the buffer's tensors keep their addresses) and draws its random numbers from the CUDA
-  // generator's graph-safe state.
-  struct Graph {
-    c10::cuda::CUDAStream stream = c10::cuda::getStreamFromPool();
-    std::unique_ptr<at::cuda::CUDAGraph> graph;
-    bool warm = false;
-    int64_t phase = -1;  // the policy delay's phase the graph was captured at
-  };
-
+  // An update's gradient steps as one CUDA graph (rl/cuda_graph.h), captured anew where the
+  // policy delay's phase differs from the graph's (a resumed run; n is a multiple of the delay)
   void graphed_steps(int n, int64_t step0) {
-    if (!graph_) graph_ = std::make_unique<Graph>();
-    Graph& g = *graph_;
     const int64_t phase = step0 % c_.policy_delay;
-    if (g.phase != phase) {  // a resumed run at another phase (n is a multiple of the delay)
-      g.graph.reset();
-      g.warm = false;
-      g.phase = phase;
+    if (!graph_ || graph_phase_ != phase) {
+      graph_ = std::make_unique<GraphedSteps>(
+          c_.twin ? "TD3's gradient steps" : "DDPG's gradient steps",
+          c_.twin ? "td3.cuda_graph" : "ddpg.cuda_graph");
+      graph_phase_ = phase;
     }
-    // a replay runs no host code: the parameters must be the flat buffers' now
     critic_opt_->rebind();
     actor_opt_->rebind();
-    const auto main = c10::cuda::getCurrentCUDAStream();
-    at::cuda::CUDAEvent ready;
-    ready.record(main);
-    ready.block(g.stream);
-    {
-      c10::cuda::CUDAStreamGuard on_side(g.stream);
-      if (g.warm && !g.graph) {
-        g.graph = capture_cuda_graph(
-            g.stream, [&] { gradient_steps(n, step0); },
-            c_.twin ? "TD3's gradient steps" : "DDPG's gradient steps",
-            c_.twin ? "td3.cuda_graph" : "ddpg.cuda_graph");
-        if (!g.graph) c_.cuda_graph = false;
-      }
-      if (g.graph)
-        g.graph->replay();
-      else
-        gradient_steps(n, step0);
-      g.warm = true;
-    }
-    at::cuda::CUDAEvent done;
-    done.record(g.stream);
-    done.block(main);
+    if (!graph_->run([&] { gradient_steps(n, step0); })) c_.cuda_graph = false;
   }
-#else
-  struct Graph {};
 #endif
 
   const std::vector<std::string>& metric_names() const override {
@@ -259,7 +219,10 @@ class Td3Algorithm final : public Algorithm {
   torch::Tensor steps_;  // gradient steps so far (the policy delay's phase; checkpointed)
   torch::Tensor last_obs_, last_act_;
   torch::Tensor sums_, saturated_;  // an update's statistics, summed on the device
-  std::unique_ptr<Graph> graph_;
+#ifdef BIDEX_TORCH_CUDA
+  std::unique_ptr<GraphedSteps> graph_;
+  int64_t graph_phase_ = -1;  // the policy delay's phase the graph was captured at
+#endif
 };
 
 }  // namespace

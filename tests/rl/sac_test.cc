@@ -1,13 +1,15 @@
 // rl/sac: the critics' target, the temperature's loss and the squashed Gaussian's density against
-// hand-worked values, a SAC run's checkpoints, and SAC's and MTSAC's updates with FlatAdam
-// against the same updates with LibTorch's Adam.
+// hand-worked values, a SAC run's checkpoints, SAC's and MTSAC's updates with FlatAdam against
+// the same updates with LibTorch's Adam, and the CUDA graph's setting.
 #include "tests/rl/mirror_fixture.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
 #include "core/files.h"
 #include "rl/checkpoint.h"
+#include "rl/metrics.h"
 #include "rl/policy.h"
 #include "rl/replay.h"
 #include "rl/sac.h"
@@ -92,6 +94,51 @@ TEST_CASE("a SAC run stops, resumes from its checkpoint and evaluates", "[rl][sa
     CHECK(err.key() == "sac.replay_size");
     CHECK(std::string(err.what()).find("at least env.slots (64)") != std::string::npos);
   }
+}
+
+// sac.cuda_graph replays an update as a CUDA graph on a CUDA device only (rl/cuda_graph.h; its
+// speed and learning are measured on a GPU, bench/learner_compare.sh): off by default, a setting
+// of sac and mtsac, checked, and without effect on the CPU, where two runs with it off and on
+// reach the same metrics to the last digit.
+TEST_CASE("sac.cuda_graph is off by default and checked and trains the same run on the CPU",
+          "[rl][sac][mtsac]") {
+  auto yaml = [](const std::string& algo, const std::string& target,
+                 const std::vector<std::string>& extra) {
+    std::vector<std::string> o = tiny_sac();
+    o.insert(o.end(), extra.begin(), extra.end());  // after tiny_sac's: they win
+    return rl::resolve_train_yaml(rl::default_train_config(algo), algo, target, o);
+  };
+  CHECK_FALSE(rl::parse_train_config(yaml("sac", "catch_underarm_raise", {}), "x").sac.cuda_graph);
+  CHECK(rl::parse_train_config(yaml("mtsac", "MT4", {"sac.cuda_graph=true"}), "x").sac.cuda_graph);
+  try {
+    yaml("sac", "catch_underarm_raise", {"sac.cuda_graph=sometimes"});
+    FAIL("accepted");
+  } catch (const ConfigError& err) {
+    CHECK(err.key() == "sac.cuda_graph");
+    CHECK_THAT(err.what(), Catch::Contains("true or false") && Catch::Contains("sometimes"));
+  }
+  test::TaskTempDir tmp;
+  std::vector<std::vector<double>> figures[2];
+  for (int on = 0; on < 2; ++on) {
+    const std::string dir = tmp.file(on ? "on" : "off");
+    // 128 slot-steps of 4 slots: the 64-row buffer is full from the third update on, where a
+    // CUDA device would capture the graph and replay it
+    rl::train_new(yaml("sac", "catch_underarm_raise",
+                       {on ? "sac.cuda_graph=true" : "sac.cuda_graph=false", "train.steps=128"}),
+                  dir, test::quiet());
+    std::vector<std::string> cols;
+    std::vector<std::vector<double>> rows;
+    rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
+    REQUIRE(rows.size() == 4);
+    for (const char* name : {"q_loss", "actor_loss", "alpha", "q_mean"}) {  // not the clocks
+      const auto at = std::find(cols.begin(), cols.end(), name) - cols.begin();
+      REQUIRE(at < static_cast<long>(cols.size()));
+      std::vector<double> column;
+      for (auto& r : rows) column.push_back(r[at]);
+      figures[on].push_back(column);
+    }
+  }
+  CHECK(figures[1] == figures[0]);
 }
 
 TEST_CASE("multi-task SAC: each task's temperature follows its own rows", "[rl][sac][mtsac]") {
