@@ -137,7 +137,9 @@ def main():
         scaled = [None if r is None else r * scale_of.get(t, 1.0) for t, r in zip(tasks, rets)]
         print()
         print(f"The mean action's mean return over the {len(tasks)} tasks: {fmt(mean(rets))}; with "
-              f"the suite's reward scales (the paper's metric): {fmt(mean(scaled))}.")
+              f"the suite's reward scales (the paper's metric): {fmt(mean(scaled))}. Its normalised "
+              f"mean with each task's score capped at 1 (a task past its ground truth counting as "
+              f"1): {fmt(mean([min(x, 1.0) for x in en]))}.")
     if a.curve:
         print()
         print("| slot-steps | updates | training normalised mean |")
