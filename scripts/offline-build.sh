@@ -90,7 +90,8 @@ case "$mode" in
     # the mujoco wheel for this machine's python3 (a wheel is a zip archive)
     tag=$(python3 -c 'import sys; print("cp%d%d" % sys.version_info[:2])')
     ver=$(python3 -c 'import sys; print("%d.%d" % sys.version_info[:2])')
-    wheel=$(ls "$deps"/mujoco-"$mujoco_version"-"$tag"-*.whl 2>/dev/null | head -1)
+    # (no match must reach the message below, not stop the script under set -e and pipefail)
+    wheel=$(compgen -G "$deps/mujoco-$mujoco_version-$tag-*.whl" | head -1 || true)
     [[ -n "$wheel" ]] || { echo "build: no mujoco-$mujoco_version-$tag wheel in $deps (bundle with BIDEX_TARGET_PYTHON=$ver)" >&2; exit 1; }
     # the wheels, for this python3, into a private folder (the GPU backend's embedded Python
     # imports them from there; its path names the Python version that CMake looks for)
