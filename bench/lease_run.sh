@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# A GPU lease's build and work in the background, so that device calls only carry files and wait
+# (the device tool lays the working tree down again on every call, and in the fourteenth lease a
+# background build in the call's working folder failed on a tracked header that was missing
+# meanwhile: bench/results/suites-h200/lease14/lease.txt):
+#   bench/lease_run.sh build PARTS [SRC]
+#       copies this working tree to SRC (default /root/src; an existing SRC is replaced, its
+#       build-gpu kept), joins the bundle's PARTS (scripts/offline-build.sh split) and starts
+#       the build of bidex there in the background (SRC/build-gpu, no renderer; log
+#       SRC/build.log); returns at once
+#   bench/lease_run.sh then SRC COMMAND
+#       in the background: waits for SRC's build, then runs COMMAND (one bash command line) in
+#       SRC with BIDEX_GPU_BUILD=build-gpu (log SRC/then.log, each line timed); returns at once;
+#       several `then` calls run their commands side by side
+#   bench/lease_run.sh status SRC
+#       the build's state and the tail of then.log
+# BIDEX_COMMIT (the commit of the results) is passed on to COMMAND.
+set -uo pipefail
+here=$(cd "$(dirname "$0")/.." && pwd)
+stage=${1:-}
+if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
+  sed -n '2,/^[^#]/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'
+  exit 0
+fi
+built='^build: .*apps/bidex'
+case "$stage" in
+build)
+  parts=$(realpath -e "${2:?PARTS}") || exit 2
+  compgen -G "$parts/bidex-deps.tar.part*" >/dev/null ||
+    { echo "lease_run: no bidex-deps.tar.part* in $parts" >&2; exit 2; }
+  src=$(realpath -m "${3:-/root/src}")
+  [[ "$src" != "$here" ]] || { echo "lease_run: SRC is this working tree itself" >&2; exit 2; }
+  mkdir -p "$src"
+  find "$src" -mindepth 1 -maxdepth 1 ! -name build-gpu -exec rm -rf {} +
+  tar -C "$here" --exclude=./build-gpu --exclude=./build --exclude=./.venv --exclude=./.whl -cf - . |
+    tar -C "$src" -xf - || { echo "lease_run: copying the tree to $src failed" >&2; exit 1; }
+  cd "$src" || exit 1
+  scripts/offline-build.sh join "$parts" /tmp/bidex-deps || exit 1
+  rm -f build.end
+  BIDEX_CMAKE_ARGS="${BIDEX_CMAKE_ARGS:--DBIDEX_RENDER_GL=NONE}" BIDEX_BUILD_TARGETS=bidex \
+    setsid nohup bash -c 'scripts/offline-build.sh build /tmp/bidex-deps build-gpu; echo $? >build.end' \
+    >"$src/build.log" 2>&1 </dev/null &
+  echo "lease_run: building in $src (log $src/build.log)"
+  ;;
+then)
+  src=$(realpath -e "${2:?SRC}") || exit 2
+  cmd=${3:?COMMAND}
+  [[ -f "$src/build.log" ]] || { echo "lease_run: no build in $src (run build first)" >&2; exit 2; }
+  # shellcheck disable=SC2016
+  setsid nohup bash -c '
+    cd "$0" || exit 1
+    until grep -q "$2" build.log; do
+      [[ -f build.end ]] && ! grep -q "$2" build.log &&
+        { echo "$(date -u +%T) the build ended without bidex: $1 not run"; exit 1; }
+      sleep 5
+    done
+    echo "$(date -u +%T) start: $1"
+    BIDEX_GPU_BUILD=build-gpu bash -c "$1"
+    echo "$(date -u +%T) end (exit $?): $1"' "$src" "$cmd" "$built" >>"$src/then.log" 2>&1 </dev/null &
+  echo "lease_run: after the build, in $src: $cmd (log $src/then.log)"
+  ;;
+status)
+  src=$(realpath -e "${2:?SRC}") || exit 2
+  if grep -q "$built" "$src/build.log" 2>/dev/null; then echo "build: done"
+  elif [[ ! -f "$src/build.end" ]]; then echo "build: running, $(tail -n1 "$src/build.log" 2>/dev/null)"
+  else echo "build: failed"; grep -m5 -A8 'FAILED\|rror' "$src/build.log"; fi
+  tail -n 20 "$src/then.log" 2>/dev/null
+  ;;
+*)
+  echo "lease_run: unknown stage $stage (build, then or status)" >&2
+  exit 2
+  ;;
+esac
