@@ -45,7 +45,7 @@
 #       a lease, and DEST, an ignored folder of the checkout, does not outlive the session; MT20's
 #       checkpoint is 86 MB): the folder with its newest checkpoint only, as RUN.tar.partNN of
 #       15 MiB in DEST, parts FIRST.. (default 0), COUNT of them (default all; a device call
-#       brings back at most 64 MiB: four parts)
+#       brings back at most 64 MiB: four parts; bench/carry.sh)
 #   bench/sweep_run.sh bring OUTDIR RUN PARTS
 #       the parts of `keep` (in PARTS, all of them) joined back into RUN's run folder, which a
 #       later `start` of RUN resumes
@@ -319,34 +319,22 @@ collect)
     "${BIDEX_COMMIT:-unknown}" $(cat "$out/lanes")
   ;;
 keep)
-  spec=${1:?RUN}; dest=$(realpath -m "${2:?DEST}"); first=${3:-0}; count=${4:-1000}
+  spec=${1:?RUN}; dest=${2:?DEST}; first=${3:-0}; count=${4:-1000}
   dir=$(run_dir "$spec"); name=${spec//\//-}
   [[ -f $dir/config.yaml ]] || { echo "keep: no run folder $dir" >&2; exit 1; }
   newest=$(ls "$dir"/checkpoints/*.ckpt 2>/dev/null | sort | tail -n 1)
   [[ -n $newest ]] || { echo "keep: $dir has no checkpoint" >&2; exit 1; }
-  work=$runs/keep-$name
-  if [[ ! -f $work/done ]]; then  # split once; later calls take further parts from it
-    rm -rf "$work" && mkdir -p "$work"
-    (cd "$(dirname "$dir")" && b=$(basename "$dir") &&
-       { find "$b" -path "$b/checkpoints" -prune -o -type f -print
-         echo "$b/checkpoints/$(basename "$newest")"; } | tar -cf - -T -) |
-      split -b 15M -d - "$work/$name.tar.part"
-    (cd "$work" && sha256sum "$name".tar.part* >"$name.sha256") && touch "$work/done"
-  fi
-  mkdir -p "$dest"
-  ls "$work/$name".tar.part* | tail -n +$((first + 1)) | head -n "$count" | xargs -r cp -t "$dest"
-  cp "$work/$name.sha256" "$dest/"
-  ls -l "$dest"
-  echo "keep: $(ls "$work/$name".tar.part* | wc -l) parts in all of $spec ($(basename "$newest"))"
+  b=$(basename "$dir")
+  mapfile -t files < <(cd "$(dirname "$dir")" && find "$b" -path "$b/checkpoints" -prune -o -type f -print)
+  bench/carry.sh out "$name" "$(dirname "$dir")" "$runs/keep-$name" "$dest" "$first" "$count" \
+    -- "${files[@]}" "$b/checkpoints/$(basename "$newest")" || exit 1
+  echo "keep: $spec at $(basename "$newest")"
   ;;
 bring)
-  spec=${1:?RUN}; parts=$(realpath -m "${2:?PARTS}")
+  spec=${1:?RUN}; parts=${2:?PARTS}
   dir=$(run_dir "$spec"); name=${spec//\//-}
-  (cd "$parts" && sha256sum -c --quiet "$name.sha256") ||
-    { echo "bring: the parts in $parts do not match $name.sha256" >&2; exit 1; }
   [[ ! -e $dir ]] || { echo "bring: $dir exists; not replaced" >&2; exit 1; }
-  mkdir -p "$(dirname "$dir")"
-  cat "$parts/$name".tar.part* | tar -C "$(dirname "$dir")" -xf -
+  bench/carry.sh in "$name" "$parts" "$(dirname "$dir")" || exit 1
   ls "$dir" "$dir/checkpoints"
   ;;
 *)

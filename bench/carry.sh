@@ -1,0 +1,58 @@
+#!/usr/bin/env bash
+# Files carried from one GPU lease to a later one: a device call brings back at most 64 MiB and
+# carries at most 64 MiB with the working tree, so a folder goes as tar parts with a checksum
+# file (bench/sweep_run.sh keep and bring, bench/lease_run.sh keep-cache and build):
+#   bench/carry.sh out NAME DIR WORK DEST [FIRST [COUNT]] [-- PATH...]
+#       DIR's files (or only the PATHs, relative to DIR) as WORK/NAME.tar.partNN of
+#       $CARRY_PART_SIZE (default 15M) and WORK/NAME.sha256, made once (a later call with the
+#       same WORK takes further parts from it); parts FIRST.. (default 0), COUNT of them (default
+#       all), and the checksum file, copied to DEST
+#   bench/carry.sh in NAME PARTS DIR
+#       checks PARTS/NAME.tar.part* against PARTS/NAME.sha256 (every part must be there) and
+#       unpacks them into DIR
+set -uo pipefail
+stage=${1:-}
+if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
+  sed -n '2,/^[^#]/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'
+  exit 0
+fi
+case "$stage" in
+out)
+  name=${2:?NAME}; dir=${3:?DIR}; work=$(realpath -m "${4:?WORK}"); dest=$(realpath -m "${5:?DEST}")
+  shift 5
+  first=0 count=1000000
+  [[ $# -gt 0 && $1 != -- ]] && { first=$1; shift; }
+  [[ $# -gt 0 && $1 != -- ]] && { count=$1; shift; }
+  [[ $# -gt 0 && $1 == -- ]] && shift
+  [[ -d $dir ]] || { echo "carry: no folder $dir" >&2; exit 1; }
+  if [[ ! -f $work/$name.done ]]; then
+    mkdir -p "$work"
+    rm -f "$work/$name".tar.part* "$work/$name.sha256"
+    if [[ $# -gt 0 ]]; then tar -C "$dir" -cf - -- "$@"; else tar -C "$dir" -cf - .; fi |
+      split -b "${CARRY_PART_SIZE:-15M}" -d - "$work/$name.tar.part" ||
+      { echo "carry: packing $dir failed" >&2; exit 1; }
+    (cd "$work" && sha256sum "$name".tar.part* >"$name.sha256") || exit 1
+    touch "$work/$name.done"
+  fi
+  mkdir -p "$dest"
+  ls "$work/$name".tar.part* | tail -n +$((first + 1)) | head -n "$count" | xargs -r cp -t "$dest"
+  cp "$work/$name.sha256" "$dest/"
+  echo "carry: $(ls "$work/$name".tar.part* | wc -l) parts in all of $name; in $dest:" \
+    "$(cd "$dest" && ls "$name".tar.part* 2>/dev/null | tr '\n' ' ')"
+  ;;
+in)
+  name=${2:?NAME}; parts=$(realpath -m "${3:?PARTS}"); dir=$(realpath -m "${4:?DIR}")
+  [[ -f $parts/$name.sha256 ]] || { echo "carry: no $name.sha256 in $parts" >&2; exit 1; }
+  (cd "$parts" && sha256sum -c --quiet "$name.sha256") ||
+    { echo "carry: the parts in $parts do not match $name.sha256" >&2; exit 1; }
+  mkdir -p "$dir"
+  # the parts the checksum file lists, in its order (not whatever else matches the name)
+  (cd "$parts" && awk '{print $2}' "$name.sha256" | xargs cat) | tar -C "$dir" -xf - ||
+    { echo "carry: unpacking $name into $dir failed" >&2; exit 1; }
+  echo "carry: $name unpacked into $dir"
+  ;;
+*)
+  echo "carry: unknown stage $stage (out or in)" >&2
+  exit 2
+  ;;
+esac
