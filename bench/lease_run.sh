@@ -14,6 +14,11 @@
 #       several `then` calls run their commands side by side
 #   bench/lease_run.sh status SRC
 #       the build's state and the tail of then.log
+#   bench/lease_run.sh keep-cache DEST [FIRST [COUNT]]
+#       Warp's kernel cache (~/.cache/warp; a fresh machine spends minutes compiling the scenes'
+#       kernels before the first step) as warp-cache.tar.partNN of 15 MiB in DEST (bench/carry.sh
+#       out, split once a machine; at most four parts a call come back); `build` unpacks those
+#       parts into ~/.cache before it starts when PARTS holds them beside the bundle's
 # BIDEX_COMMIT (the commit of the results) is passed on to COMMAND.
 set -uo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
@@ -23,6 +28,7 @@ if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
   exit 0
 fi
 built='^build: .*apps/bidex'
+cache_parent=${XDG_CACHE_HOME:-$HOME/.cache}  # Warp's kernel cache is its folder warp/
 case "$stage" in
 build)
   parts=$(realpath -e "${2:?PARTS}") || exit 2
@@ -36,6 +42,9 @@ build)
     tar -C "$src" -xf - || { echo "lease_run: copying the tree to $src failed" >&2; exit 1; }
   cd "$src" || exit 1
   scripts/offline-build.sh join "$parts" /tmp/bidex-deps || exit 1
+  if [[ -f $parts/warp-cache.sha256 ]]; then
+    bench/carry.sh in warp-cache "$parts" "$cache_parent" || exit 1
+  fi
   rm -f build.end
   BIDEX_CMAKE_ARGS="${BIDEX_CMAKE_ARGS:--DBIDEX_RENDER_GL=NONE}" BIDEX_BUILD_TARGETS=bidex \
     setsid nohup bash -c 'scripts/offline-build.sh build /tmp/bidex-deps build-gpu; echo $? >build.end' \
@@ -66,8 +75,14 @@ status)
   else echo "build: failed"; grep -m5 -A8 'FAILED\|rror' "$src/build.log"; fi
   tail -n 20 "$src/then.log" 2>/dev/null
   ;;
+keep-cache)
+  [[ -d $cache_parent/warp ]] || { echo "lease_run: no Warp kernel cache in $cache_parent/warp" >&2; exit 1; }
+  du -sh "$cache_parent/warp"
+  "$here/bench/carry.sh" out warp-cache "$cache_parent" /tmp/bidex-carry "${2:?DEST}" \
+    "${3:-0}" "${4:-1000000}" -- warp
+  ;;
 *)
-  echo "lease_run: unknown stage $stage (build, then or status)" >&2
+  echo "lease_run: unknown stage $stage (build, then, status or keep-cache)" >&2
   exit 2
   ;;
 esac
