@@ -36,8 +36,14 @@ build)
     { echo "lease_run: no bidex-deps.tar.part* in $parts" >&2; exit 2; }
   src=$(realpath -m "${3:-/root/src}")
   [[ "$src" != "$here" ]] || { echo "lease_run: SRC is this working tree itself" >&2; exit 2; }
+  # only a folder this script made is emptied (it holds the marker .lease-src)
+  if [[ -d $src && -n $(ls -A "$src") && ! -f $src/.lease-src ]]; then
+    echo "lease_run: $src exists and is not a copy made by lease_run.sh build; not replaced" >&2
+    exit 2
+  fi
   mkdir -p "$src"
   find "$src" -mindepth 1 -maxdepth 1 ! -name build-gpu -exec rm -rf {} +
+  touch "$src/.lease-src"
   tar -C "$here" --exclude=./build-gpu --exclude=./build --exclude=./.venv --exclude=./.whl -cf - . |
     tar -C "$src" -xf - || { echo "lease_run: copying the tree to $src failed" >&2; exit 1; }
   cd "$src" || exit 1
@@ -72,7 +78,10 @@ status)
   src=$(realpath -e "${2:?SRC}") || exit 2
   if grep -q "$built" "$src/build.log" 2>/dev/null; then echo "build: done"
   elif [[ ! -f "$src/build.end" ]]; then echo "build: running, $(tail -n1 "$src/build.log" 2>/dev/null)"
-  else echo "build: failed"; grep -m5 -A8 'FAILED\|rror' "$src/build.log"; fi
+  else
+    echo "build: failed (exit $(cat "$src/build.end"))"
+    grep -m3 -A8 '^FAILED' "$src/build.log" || tail -n 20 "$src/build.log"
+  fi
   tail -n 20 "$src/then.log" 2>/dev/null
   ;;
 keep-cache)
