@@ -29,7 +29,8 @@
 #       evaluates them again. Every run stops 240 s before the deadline, SECONDS
 #       after this call, whatever it has reached, and is evaluated by then.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
-#       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute
+#       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute;
+#       returns as soon as every lane is done (its last line: "all N lanes done")
 #   bench/sweep_run.sh stop OUTDIR RUN...
 #       stops those runs for good (their lanes end; each run writes a checkpoint and keeps its
 #       folder), to give the GPU to the others; noted in OUTDIR/stopped.txt
@@ -285,8 +286,13 @@ wait)
       tail -n 1 "$m" | awk -F, -v s="$spec" '{printf "  %-22s %6.1fM  return %s  success %s  fps %.0f\n", s, $2 / 1e6, $7, $9, $4}'
     done
     ((done_n >= total)) && { echo "all $total lanes done"; break; }
-    (($(date +%s) + 60 > limit)) && { echo "$done_n of $total lanes done"; break; }
-    sleep 60
+    (($(date +%s) >= limit)) && { echo "$done_n of $total lanes done"; break; }
+    # the next report in a minute, or at once when the last lane ends (a waiting device call
+    # returns as soon as there is nothing left to wait for)
+    next=$(($(date +%s) + 60)); ((next > limit)) && next=$limit
+    while (($(date +%s) < next)) && (($(cat "$out/lanes.done" 2>/dev/null | wc -l) < total)); do
+      sleep 2
+    done
   done
   ;;
 stop)
