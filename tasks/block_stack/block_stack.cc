@@ -1,4 +1,5 @@
 // block_stack: the spec, the YAML, the scene and the host half of BlockStack (block_stack.h).
+#include <algorithm>
 #include <cmath>
 #include <string>
 #include <vector>
@@ -101,7 +102,12 @@ BlockStack::BlockStack(const TaskSpec& spec, BlockStackParams p)
 
 sim::SceneBuilder BlockStack::scene(const sim::HandSpec& right_hand,
                                     const sim::PhysicsOptions& physics) const {
-  sim::SceneBuilder sb = scene_with_hands(right_hand, physics);
+  // two blocks on the table take up to 202 constraint rows in PPO's runs (bench/results/
+  // sweep-h100x4/lease2, summary.json's gpu_rows), past the default GPU room of 192 (an
+  // overflowing world is reset); the room keeps 1.25x over the most measured
+  sim::PhysicsOptions ph = physics;
+  ph.gpu.njmax = std::max(ph.gpu.njmax, 256);
+  sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
   sb.add_object(manip::table("table", p_.table));
   const auto& b = p_.blocks;
   const sim::Quat q = manip::quat_rpy(b.rpy);

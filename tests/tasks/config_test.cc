@@ -1,13 +1,17 @@
 // tasks/registry + load_catch_params + objects: unknown task ids and bad task YAML files are
 // ConfigErrors naming the file, the key path, what was expected and what was found; a broken
-// MJCF object is a ModelError naming the scene; a valid user MJCF object builds and steps.
+// MJCF object is a ModelError naming the scene; a valid user MJCF object builds and steps; each
+// task's GPU room exceeds the constraint rows its runs have needed.
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <catch2/catch.hpp>
 #include <mujoco/mujoco.h>
 
+#include "sim/hand_spec.h"
+#include "sim/physics.h"
 #include "tests/tasks/task_fixture.h"
 
 using namespace bidex;
@@ -218,4 +222,25 @@ TEST_CASE("a user MJCF body file builds and steps", "[tasks][config][objects]") 
   }
   CHECK(env->take_stats().faults == 0);
   CHECK(env->batch().total_faults() == 0);
+}
+
+// Each task's GPU room (constraint rows per world; a world that needs more is reset mid-episode)
+// exceeds the most rows any committed GPU run of it needed: summary.json's gpu_rows under
+// bench/results, trained policies included (re_orientation's 225 in MT20 at 191M slot-steps).
+TEST_CASE("each task's GPU room exceeds the rows its runs have needed", "[tasks][config]") {
+  const std::vector<std::pair<std::string, int>> most_rows = {
+      {"hand_over", 104},         {"catch_underarm", 105},      {"catch_over2underarm", 111},
+      {"catch_abreast", 111},     {"two_catch_underarm", 116},  {"lift_underarm", 182},
+      {"door_open_outward", 194}, {"door_close_inward", 197},   {"door_open_inward", 167},
+      {"door_close_outward", 172}, {"bottle_cap", 143},         {"push_block", 165},
+      {"swing_cup", 148},         {"scissors", 171},            {"re_orientation", 225},
+      {"pen", 154},               {"switch", 142},              {"block_stack", 202},
+      {"pour_water", 326},        {"grasp_and_place", 286}};
+  REQUIRE(most_rows.size() == tasks::task_registry().size());
+  const sim::HandSpec hand = sim::load_hand_spec(sim::default_hand_path());
+  const sim::PhysicsOptions gpu = sim::load_physics(sim::default_physics_path()).on_gpu();
+  for (const auto& [id, rows] : most_rows) {
+    INFO(id << " needed up to " << rows << " rows");
+    CHECK(tasks::make_task(id)->scene(hand, gpu).physics().gpu.njmax > rows);
+  }
 }
