@@ -277,8 +277,9 @@ start)
 wait)
   limit=$(($(date +%s) + ${1:?SECONDS}))
   total=$(wc -l <"$out/lanes")
+  lanes_done() { cat "$out/lanes.done" 2>/dev/null | wc -l; }
   while :; do
-    done_n=$(cat "$out/lanes.done" 2>/dev/null | wc -l)
+    done_n=$(lanes_done)
     date -u +%T
     for spec in $(cat "$out/lanes"); do
       m=$(run_dir "$spec")/metrics.csv
@@ -290,7 +291,7 @@ wait)
     # the next report in a minute, or at once when the last lane ends (a waiting device call
     # returns as soon as there is nothing left to wait for)
     next=$(($(date +%s) + 60)); ((next > limit)) && next=$limit
-    while (($(date +%s) < next)) && (($(cat "$out/lanes.done" 2>/dev/null | wc -l) < total)); do
+    while (($(date +%s) < next)) && (($(lanes_done) < total)); do
       sleep 2
     done
   done
