@@ -51,7 +51,9 @@
 #       the parts of `keep` (in PARTS, all of them) joined back into RUN's run folder, which a
 #       later `start` of RUN resumes
 # Run folders stay on the machine under $SWEEP_RUNS (default /tmp/bidex-sweep). BIDEX_COMMIT
-# names the commit in the results; BIDEX_GPU_BUILD is the build folder (default build-gpu).
+# names the commit in the results: `start` keeps it in OUTDIR/commit for `collect`, which takes
+# its own BIDEX_COMMIT first (a later device call's shell no longer has the start's);
+# BIDEX_GPU_BUILD is the build folder (default build-gpu).
 # $SWEEP_REGISTRY: a registry file the runs and their evaluations are recorded in (put it in
 # OUTDIR and `pack` brings it back; `bidex registry scores|evals|report age --registry FILE` then
 # read it); unset, nothing is recorded. A meta-RL suite's run (mode: meta, e.g. ML20/apromp) is
@@ -258,6 +260,7 @@ start)
   seconds=${1:?SECONDS}; shift
   deadline=$(($(date +%s) + seconds))
   echo "$deadline" >"$out/deadline"
+  [[ -z ${BIDEX_COMMIT:-} ]] || echo "$BIDEX_COMMIT" >"$out/commit"
   for spec in "$@"; do echo "${spec%%=*}"; done | sort | uniq -c | while read -r n g; do
     echo "$n" >"$out/gpu$g.lanes"
   done
@@ -322,8 +325,8 @@ collect)
   gpus=$(nvidia-smi --query-gpu=name --format=csv,noheader 2>/dev/null)
   machine="$(grep -c . <<<"$gpus") x $(head -1 <<<"$gpus"), $(nproc) cores"
   [[ -n $gpus ]] || machine="$(nproc) cores, no GPU"
-  python3 bench/sweep_collect.py "$out" "$machine" \
-    "${BIDEX_COMMIT:-unknown}" $(cat "$out/lanes")
+  commit=${BIDEX_COMMIT:-$(cat "$out/commit" 2>/dev/null)}
+  python3 bench/sweep_collect.py "$out" "$machine" "${commit:-unknown}" $(cat "$out/lanes")
   ;;
 keep)
   spec=${1:?RUN}; dest=${2:?DEST}; first=${3:-0}; count=${4:-1000}
