@@ -1,5 +1,6 @@
 #include "sim/physics.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -124,6 +125,13 @@ PhysicsOptions PhysicsOptions::on_gpu() const {
   if (gpu.timestep > 0) o.timestep = gpu.timestep;
   if (gpu.substeps > 0) o.substeps = gpu.substeps;
   if (!gpu.jacobian.empty()) o.jacobian = gpu.jacobian;
+  return o;
+}
+
+PhysicsOptions PhysicsOptions::with_gpu_room(int njmax, int nconmax) const {
+  PhysicsOptions o = *this;
+  o.gpu.njmax = std::max(o.gpu.njmax, njmax);
+  o.gpu.nconmax = std::max(o.gpu.nconmax, nconmax);
   return o;
 }
 

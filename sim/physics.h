@@ -56,6 +56,10 @@ struct PhysicsOptions {
   // These options as the GPU backend steps them: timestep, substeps and jacobian replaced by
   // gpu's.
   PhysicsOptions on_gpu() const;
+  // These options with the GPU room per world raised to at least `njmax` constraint rows and
+  // `nconmax` contacts (never lowered): a scene whose worlds need more than the default asks
+  // for it in its scene(), with the measurement in a comment there
+  PhysicsOptions with_gpu_room(int njmax, int nconmax = 0) const;
 };
 
 // Reads a physics YAML (unknown keys and bad values are ConfigErrors); keys not in the file

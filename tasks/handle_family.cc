@@ -262,9 +262,7 @@ sim::SceneBuilder HandleTask::scene(const sim::HandSpec& right_hand,
   // pot up to 182 (bench/results/suites-h200/lease15 and sweep-h100x4, summary.json's
   // gpu_rows), at or past the default GPU room of 192 (an overflowing world is reset); the room
   // keeps 1.3x over the most measured
-  sim::PhysicsOptions ph = physics;
-  ph.gpu.njmax = std::max(ph.gpu.njmax, 256);
-  sim::SceneBuilder sb(ph);
+  sim::SceneBuilder sb(physics.with_gpu_room(256));
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree, spec().hands_collide);
   sim::ObjectSpec o;
   o.shape = sim::ObjectSpec::Shape::kMjcf;

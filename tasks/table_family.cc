@@ -375,10 +375,7 @@ sim::SceneBuilder TableTask::scene(const sim::HandSpec& right_hand,
   // and up to 156 constraint rows with the default 8 balls under random actions (bench task,
   // maxuse_efc), but up to 301 under ML20 ProMP's trained policy
   // (bench/results/gpu-meta-h100/ML20-promp-16384); contacts get a room raised alike
-  if (kind_ == TableKind::kPourWater) {
-    ph.gpu.njmax = std::max(ph.gpu.njmax, 448);
-    ph.gpu.nconmax = std::max(ph.gpu.nconmax, 128);
-  }
+  if (kind_ == TableKind::kPourWater) ph = ph.with_gpu_room(448, 128);
   sim::SceneBuilder sb(ph);
   add_two_hands(sb, right_hand, p_.right, p_.left, sim::Base::kFree, spec().hands_collide);
   sim::TableSpec table;

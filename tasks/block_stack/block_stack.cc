@@ -105,9 +105,7 @@ sim::SceneBuilder BlockStack::scene(const sim::HandSpec& right_hand,
   // two blocks on the table take up to 202 constraint rows in PPO's runs (bench/results/
   // sweep-h100x4/lease2, summary.json's gpu_rows), past the default GPU room of 192 (an
   // overflowing world is reset); the room keeps 1.25x over the most measured
-  sim::PhysicsOptions ph = physics;
-  ph.gpu.njmax = std::max(ph.gpu.njmax, 256);
-  sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics.with_gpu_room(256));
   sb.add_object(manip::table("table", p_.table));
   const auto& b = p_.blocks;
   const sim::Quat q = manip::quat_rpy(b.rpy);

@@ -117,9 +117,7 @@ sim::SceneBuilder GraspAndPlace::scene(const sim::HandSpec& right_hand,
                                        const sim::PhysicsOptions& physics) const {
   // up to 203 constraint rows under random actions (bench task, maxuse_efc): more than the
   // default GPU room of 192, which every world overflowed (bench/results/warp-h100/)
-  sim::PhysicsOptions ph = physics;
-  ph.gpu.njmax = std::max(ph.gpu.njmax, 384);
-  sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics.with_gpu_room(384));
   sb.add_object(manip::table("table", p_.table));
   sim::ObjectSpec b;
   b.name = "bucket";

@@ -139,9 +139,7 @@ sim::SceneBuilder ReOrientation::scene(const sim::HandSpec& right_hand,
   // (bench/results/suites-h200/lease14, summary.json's gpu_rows), past the default GPU room of
   // 192: each world that overflowed was reset mid-episode (501 world-steps in the fifteenth
   // lease's 109M slot-steps); the room keeps 1.4x over the most measured
-  sim::PhysicsOptions ph = physics;
-  ph.gpu.njmax = std::max(ph.gpu.njmax, 320);
-  sim::SceneBuilder sb = scene_with_hands(right_hand, ph);
+  sim::SceneBuilder sb = scene_with_hands(right_hand, physics.with_gpu_room(320));
   for (int i = 0; i < 2; ++i) {
     const std::string n = std::to_string(i + 1);
     auto o = manip::cube("object" + n, p_.edge, p_.density, p_.friction, p_.start[i],

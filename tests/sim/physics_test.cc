@@ -137,6 +137,23 @@ gpu:
                      "an integer > 0", "0");
 }
 
+TEST_CASE("a scene's GPU room is raised to what it asks and never lowered", "[sim][physics]") {
+  PhysicsOptions p = parse_physics(YamlView::load_string("gpu:\n  njmax: 192\n  nconmax: 64\n",
+                                                         "room.yaml"));
+  PhysicsOptions more = p.with_gpu_room(320);
+  CHECK(more.gpu.njmax == 320);
+  CHECK(more.gpu.nconmax == 64);  // contacts untouched unless asked
+  CHECK(more.timestep == p.timestep);
+  CHECK(more.memory == p.memory);
+  PhysicsOptions both = p.with_gpu_room(448, 128);
+  CHECK(both.gpu.njmax == 448);
+  CHECK(both.gpu.nconmax == 128);
+  // a physics YAML that already gives more keeps it
+  PhysicsOptions roomy = parse_physics(YamlView::load_string("gpu:\n  njmax: 512\n", "roomy.yaml"));
+  CHECK(roomy.with_gpu_room(320).gpu.njmax == 512);
+  CHECK(p.gpu.njmax == 192);  // the options it was made from are unchanged
+}
+
 TEST_CASE("bad physics YAML is a ConfigError naming file, key, expected and actual",
           "[sim][physics]") {
   TempDir dir;
