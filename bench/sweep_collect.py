@@ -18,6 +18,12 @@ ORIGINAL_PPO_FINAL = {
 }
 
 
+def is_suite(task):
+    """a suite's multi-task or meta run (configs/suites/TASK.yaml: MT4, ML20, ...), which a sweep
+    folder may hold beside single tasks (bench/suite_train_table.py tables those)"""
+    return os.path.exists(os.path.join("configs", "suites", task + ".yaml"))
+
+
 def load(path):
     return json.load(open(path)) if os.path.exists(path) else None
 

@@ -13,7 +13,7 @@ import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from atomic_io import replacing, write_text  # noqa: E402
-from sweep_collect import comparable, rows_of  # noqa: E402  (the one definition of both)
+from sweep_collect import comparable, is_suite, rows_of  # noqa: E402  (their one definition)
 
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd"]
 ORIGINAL_CURVES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "sweep",
@@ -165,8 +165,8 @@ def main():
         if not os.path.exists(path):
             sys.exit(f"sweep_table: {path} not found (bench/sweep_run.sh collect writes it)")
         for t in json.load(open(path))["runs"]:
-            if os.path.exists(os.path.join("configs", "suites", t["task"] + ".yaml")):
-                continue  # a suite's multi-task run (bench/suite_train_table.py tables it)
+            if is_suite(t["task"]):
+                continue
             t = dict(t, dir=d)
             byname[(t["run"], slots(t))] = t  # a later lease's run replaces it
     runs = list(byname.values())

@@ -11,7 +11,8 @@ episodes at or above 0.8. Time: the slot-steps and wall seconds of the first upd
 episodes) counts at its last update ("by: evaluation", an upper bound); one that met neither is
 "by: not_reached" at the slot-steps it trained (a lower bound).
 
-The run of each task: seed 0 at the task's default, the one that trained furthest. Default: the
+The run of each task: seed 0 at the task's default, the one that trained furthest (a suite's
+run in a folder, MT20 or ML20, is left out). Default: the
 training settings of configs/train/ppo.yaml (the task's slots and minibatches, else the sweep's
 16,384 and 16) and the task's current version (run.json's task_version, against `bidex info`),
 or a sweep YAML that equals today's default (EQUIVALENT).
@@ -23,7 +24,7 @@ import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from atomic_io import atomic_open  # noqa: E402
-from sweep_collect import ORIGINAL_PPO_FINAL, comparable, num, recent, rows_of  # noqa: E402
+from sweep_collect import ORIGINAL_PPO_FINAL, comparable, is_suite, num, recent, rows_of  # noqa: E402
 
 SUCCESS_GOAL = 0.8
 # sweep YAMLs whose terms are today's default of their task (each task's README says so)
@@ -86,7 +87,7 @@ def main():
         sweep = json.load(open(os.path.join(d, "sweep.json")))
         for run in sweep["runs"]:
             task, rd = run["task"], os.path.join(d, run["run"])
-            if not os.path.exists(os.path.join(rd, "config.yaml")):
+            if is_suite(task) or not os.path.exists(os.path.join(rd, "config.yaml")):
                 continue
             if task not in info:
                 info[task] = json.loads(subprocess.run([a.bidex, "info", "--task", task, "--json"],
