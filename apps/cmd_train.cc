@@ -219,7 +219,7 @@ void add_train_command(CLI::App& app) {
     std::string task, suite, algo, config, run, resume, registry, dataset, replay, agents;
     std::vector<std::string> overrides;
     int64_t stop_after = 0, replay_steps = 1000000;
-    double time_limit = 0;
+    double time_limit = 0, wall_limit = 0;
     bool no_registry = false, profile = false;
     std::string device = "auto";
   };
@@ -264,6 +264,12 @@ void add_train_command(CLI::App& app) {
                   "Stop as Ctrl-C would once this session has trained this many seconds "
                   "(a checkpoint is written; --resume continues)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--wall-limit", o->wall_limit,
+                  "Stop as Ctrl-C would once this many seconds have passed since the command "
+                  "started, its setup (building the scenes, compiling GPU kernels) included, "
+                  "after at least one update (a checkpoint is written; --resume continues): for "
+                  "a run that must end by a deadline")
+      ->check(CLI::PositiveNumber);
   cmd->add_option("--device", o->device,
                   "Where the simulation steps: cpu (MuJoCo on all cores), cuda (MuJoCo Warp on "
                   "the GPU; the learner reads its rows in place), or auto: cuda when there is a "
@@ -288,11 +294,13 @@ void add_train_command(CLI::App& app) {
       "  bidex train --task hand_over --algo happo --agents finger\n"
       "Ctrl-C writes a checkpoint and stops; --resume continues from it.");
   cmd->callback([o] {
+    const double started = monotonic_seconds();
     request_gpu_queues(o->device);
     rl::TrainOptions to;
     to.command = command_line();
     to.stop_after_updates = o->stop_after;
     to.time_limit_s = o->time_limit;
+    if (o->wall_limit > 0) to.stop_at_monotonic_s = started + o->wall_limit;
     to.device = o->device;
     to.profile = o->profile;
     if (o->no_registry && !o->registry.empty())

@@ -81,10 +81,11 @@ mkdir -p "$out" "$runs"
 
 suite_slots=${SWEEP_SUITE_SLOTS:-65536}     # a suite's slots in all (the MT20 pack's efficient size)
 suite_episodes=${SWEEP_SUITE_EPISODES:-64}  # a suite's evaluation: episodes per task
-# seconds a suite's run stops before the deadline, for its setup and its evaluation: --time-limit
-# counts training time, and MT20's pack took 214 s to build and compile before its clock started,
-# so that its run ended 211 s after the planned stop, and its evaluation (64 episodes of each of
-# twenty tasks on 8 threads) had not ended by the collection (bench/results/suites-h100x4/README.md)
+# seconds a suite's run stops before the deadline, for its evaluation (64 episodes of each of
+# twenty tasks on 8 threads takes minutes). Every run gets --wall-limit, which counts its setup
+# (the scenes, Warp's kernel compilation) as well: under --time-limit, which counts training
+# only, an MT20 run ended 211 s after its planned stop (214 s of setup;
+# bench/results/suites-h100x4/README.md) and the seventeenth lease's catch runs 94 s after theirs
 suite_reserve=${SWEEP_SUITE_RESERVE:-600}
 
 # is_suite NAME: exit 0 when NAME is a suite of configs/suites (MT20: multi-task PPO on its pack)
@@ -204,12 +205,12 @@ lane() {
     ((left > 30)) || { echo "$spec: no time left" >>"$out/lanes.log"; continue; }
     local args
     if [[ -f $dir/config.yaml ]]; then
-      args=(train --resume "$dir" --device "$device" "${registry[@]}" --time-limit "$left")
+      args=(train --resume "$dir" --device "$device" "${registry[@]}" --wall-limit "$left")
     elif is_suite "$task"; then  # multi-task PPO on the suite's pack (issue 37)
       local scale=(-o env.slots="$suite_slots")
       ((${#algo[@]} == 0)) || scale=()  # another algorithm: its own YAML's slots
       args=(train --suite "$task" "${algo[@]}" --device "$device" --run "$dir" "${registry[@]}"
-            --time-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
+            --wall-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     else
       # the sweep's slots and minibatches, unless the task's section of ppo.yaml sets its own or
@@ -217,12 +218,12 @@ lane() {
       local scale=(-o env.slots="$slots" -o ppo.minibatches=16)
       { own_slots "$task" || ((${#algo[@]} > 0)); } && scale=()
       args=(train --task "$task" "${algo[@]}" --device "$device" --run "$dir" "${registry[@]}"
-            --time-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
+            --wall-limit "$left" "${scale[@]}" -o seed="$seed" -o train.steps="$msteps"
             -o train.save_interval=50 "${cfg[@]}")
     fi
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     echo "$(date -u +%T) $spec: start on GPU $gpu" >>"$out/lanes.log"
-    "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"  # --time-limit exits 130
+    "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"  # --wall-limit exits 130
     evaluate "$spec"
     echo "$(date -u +%T) $spec: done" >>"$out/lanes.log"
   done
@@ -243,7 +244,7 @@ lane() {
     i=$((i + 1))
     ((left > 60)) || continue
     sed -i 's/^  steps: .*/  steps: 100000000/' "$dir/config.yaml"
-    local args=(train --resume "$dir" --device "$device" "${registry[@]}" --time-limit "$left")
+    local args=(train --resume "$dir" --device "$device" "${registry[@]}" --wall-limit "$left")
     echo "bidex ${args[*]}  # still rising: extended towards 100M" >>"$log/commands.txt"
     echo "$(date -u +%T) $spec: extend for ${left}s on GPU $gpu" >>"$out/lanes.log"
     "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"

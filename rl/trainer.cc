@@ -508,8 +508,10 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                      fmt("%.3g", shown_return) + " success " + fmt("%.2f", shown_success));
       bar->update(std::min(s.steps, s.cfg.steps));
     }
+    const double now = monotonic_seconds();
     const bool out_of_time =
-        opt.time_limit_s > 0 && monotonic_seconds() - session_start >= opt.time_limit_s;
+        (opt.time_limit_s > 0 && now - session_start >= opt.time_limit_s) ||
+        (opt.stop_at_monotonic_s > 0 && now >= opt.stop_at_monotonic_s);
     if (((opt.stop_after_updates > 0 && s.update >= opt.stop_after_updates) || out_of_time) &&
         s.update < total_updates) {
       stopped = true;

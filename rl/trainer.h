@@ -57,6 +57,9 @@ struct TrainOptions {
   bool progress = true;           // the progress bar on stderr
   int64_t stop_after_updates = 0; // > 0: stop as Ctrl-C would after this many updates in total
   double time_limit_s = 0;        // > 0: stop as Ctrl-C would once this session trained this long
+  // > 0: stop as Ctrl-C would once monotonic_seconds() reaches it, setup included (bidex train
+  // --wall-limit); the first update always runs
+  double stop_at_monotonic_s = 0;
   std::string command;            // recorded in run.json
   // Where the simulation steps: cpu (MuJoCo on all cores), cuda (MuJoCo Warp on the GPU, the
   // learner reading its rows in place), auto (cuda when the GPU backend, a GPU and a CUDA

@@ -12,6 +12,7 @@
 
 #include "tests/rl/rl_fixture.h"
 
+#include "core/clock.h"
 #include "core/error.h"
 #include "rl/checkpoint.h"
 #include "rl/metrics.h"
@@ -146,6 +147,42 @@ TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken 
   // a finished run resumes to nothing new
   auto r3 = rl::train_resume(dir, test::quiet());
   CHECK(r3.updates == 4);
+}
+
+TEST_CASE("a wall-clock deadline stops a run after the update that passes it and its checkpoint "
+          "resumes", "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  // a deadline already passed (as when setup outlasts --wall-limit): the first update runs, then
+  // the run stops as Ctrl-C would
+  auto o = test::quiet();
+  o.stop_at_monotonic_s = monotonic_seconds() - 1;
+  const std::string dir = tmp.file("passed");
+  auto r1 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), dir, o);
+  CHECK(r1.interrupted);
+  CHECK(r1.updates == 1);
+  CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == 1);
+  auto r2 = rl::train_resume(dir, test::quiet());
+  CHECK_FALSE(r2.interrupted);
+  CHECK(r2.updates == 4);
+  // a deadline far ahead changes nothing
+  o.stop_at_monotonic_s = monotonic_seconds() + 3600;
+  auto r3 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), tmp.file("ahead"), o);
+  CHECK_FALSE(r3.interrupted);
+  CHECK(r3.updates == 4);
+  // bidex train --wall-limit counts from the command's start, its setup included: 1 ms has
+  // passed before the first update, which runs; exit 130 as for Ctrl-C
+  const std::string args = "train --task catch_underarm_raise -o env.slots=4 -o env.threads=1 "
+                           "-o train.steps=256 -o ppo.hidden=[16] -o train.device=cpu "
+                           "--no-registry --run ";  // four updates of 64 slot-steps
+  auto r = test::bidex_run(args + tmp.file("cli") + " --wall-limit 0.001");
+  INFO(r.out);
+  CHECK(r.rc == 130);
+  CHECK(metric(tmp.file("cli"), "update") == std::vector<double>{1});
+  CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(tmp.file("cli")).back()).update == 1);
+  r = test::bidex_run(args + tmp.file("zero") + " --wall-limit 0");
+  CHECK(r.rc != 0);
+  CHECK(r.out.find("--wall-limit") != std::string::npos);
+  CHECK_FALSE(test::file_exists(tmp.file("zero")));
 }
 
 TEST_CASE("an existing run folder is never overwritten by a new run", "[rl][train]") {
