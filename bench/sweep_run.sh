@@ -276,7 +276,9 @@ start)
     setsid bash -c 'lane "$@"; echo done >>"$0"' "$out/lanes.done" "$gpu" "$deadline" "${list[@]}" \
       </dev/null >>"$out/lanes.log" 2>&1 &
   done
-  echo "started $# lanes; every run stops by $(date -u -d @"$deadline" +%T) UTC"
+  echo "started $# lanes; every run trains until $(date -u -d @$((deadline - reserve)) +%T) UTC at the" \
+       "latest (a suite's until $(date -u -d @$((deadline - suite_reserve)) +%T)) and is evaluated by" \
+       "$(date -u -d @"$deadline" +%T) UTC"
   ;;
 wait)
   limit=$(($(date +%s) + ${1:?SECONDS}))

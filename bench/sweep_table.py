@@ -177,7 +177,9 @@ def main():
     random = {k: value(v) for k, v in ((refs.get("random") or {}).get("values") or {}).items()}
     runs.sort(key=lambda t: (t["original_ppo_final"] is None, t["task"], t["seed"]))
     print(table(runs, random))
-    figure(runs, random, os.path.join(a.out or a.dirs[-1], "sweep-curves"))
+    out = a.out or a.dirs[-1]
+    os.makedirs(out, exist_ok=True)
+    figure(runs, random, os.path.join(out, "sweep-curves"))
 
 
 if __name__ == "__main__":
