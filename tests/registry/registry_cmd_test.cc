@@ -206,25 +206,25 @@ TEST_CASE("bidex registry reference and scores", "[registry][apps]") {
     run.run_dir = "runs/ho";
     const int64_t id = reg.begin_run(run);
     run.steps = 1000000;
-    run.final_return = 135.5;
+    run.final_return = 138.1375;
     run.final_success = 0.25;
-    reg.finish_run(id, run, {{"hand_over", "", 135.5, 0.25, 64}});
+    reg.finish_run(id, run, {{"hand_over", "", 138.1375, 0.25, 64}});
     registry::RunRecord s;
     s.algo = "mtppo";
     s.suite = "MT4";
     const int64_t sid = reg.begin_run(s);
-    reg.finish_run(sid, s, {{"catch_underarm", "", 8.9, 0.1, 10}, {"hand_over", "", 68.75, 0.0, 12}});
+    reg.finish_run(sid, s, {{"catch_underarm", "", 8.9, 0.1, 10}, {"hand_over", "", 70.06875, 0.0, 12}});
   }
   r = reg_run("scores", path);
   INFO(r.out);
   REQUIRE(r.rc == 0);
   CHECK(has_text(r.out, "run 1  ppo  hand_over  seed 3  1000000 steps  finished"));
-  CHECK(has_text(r.out, "final return 135.5 (normalised 0.500)  success 0.250"));
+  CHECK(has_text(r.out, "final return 138.1 (normalised 0.500)  success 0.250"));
   CHECK(has_text(r.out, "run 2  mtppo  suite MT4"));
-  // per-task scores: (68.75 - 2) / (269 - 2) = 0.25; catch_underarm has no random score
+  // per-task scores: (70.06875 - 2) / (274.275 - 2) = 0.25; catch_underarm has no random score
   CHECK(has_row(r.out, {"label", "task", "return", "success", "episodes", "normalised"}));
-  CHECK(has_row(r.out, {"hand_over", "hand_over", "135.5", "0.250", "64", "0.500"}));
-  CHECK(has_row(r.out, {"hand_over", "hand_over", "68.75", "0.000", "12", "0.250"}));
+  CHECK(has_row(r.out, {"hand_over", "hand_over", "138.1", "0.250", "64", "0.500"}));
+  CHECK(has_row(r.out, {"hand_over", "hand_over", "70.07", "0.000", "12", "0.250"}));
   CHECK(has_row(r.out, {"catch_underarm", "catch_underarm", "8.9", "0.100", "10", "-"}));
   CHECK(has_text(r.out, "2 runs in"));
   r = reg_run("scores --suite MT4", path);
@@ -244,7 +244,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   {
     Registry reg(path);
     // random scores for four of the seven tasks with a ground truth
-    reg.set_reference({"hand_over", "random", 2.0, "test"});            // ground truth 269
+    reg.set_reference({"hand_over", "random", 2.0, "test"});            // ground truth 274.275
     reg.set_reference({"catch_abreast", "random", 3.4, "test"});        // 43.4
     reg.set_reference({"scissors", "random", 11.625, "test"});          // 611.625
     reg.set_reference({"two_catch_underarm", "random", 0.1, "test"});   // 14.1
@@ -257,7 +257,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
       reg.finish_run(id, r, {{task, "", ret, 0.5, 10}});
     };
     task_run("two_catch_underarm", 14.1);  // 1
-    task_run("hand_over", 135.5);          // 0.5
+    task_run("hand_over", 138.1375);       // 0.5
     task_run("catch_abreast", 13.4);       // 0.25
     task_run("scissors", 461.625);         // 0.75
     task_run("catch_underarm", 10);        // no random score
@@ -267,7 +267,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
     s.suite = "MT4";
     suite_run = reg.begin_run(s);
     reg.finish_run(suite_run, s,
-                   {{"two_catch_underarm", "", 7.1, 0.0, 5}, {"hand_over", "", 269.0, 1.0, 5},
+                   {{"two_catch_underarm", "", 7.1, 0.0, 5}, {"hand_over", "", 274.275, 1.0, 5},
                     {"catch_underarm", "", 3, 0.0, 5}});
   }
   // every task, each with its latest score (the suite run is the latest for three of them)
@@ -278,7 +278,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   CHECK(has_row(r.out, {"task", "age", "difficulty", "run", "return", "random", "ground_truth",
                         "normalised"}));
   // task, age, difficulty, run, return, random, ground truth, normalised (by hand)
-  CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "7", "269", "2", "269", "1.000"}));
+  CHECK(has_row(r.out, {"hand_over", "9-10", "easy", "7", "274.3", "2", "274.3", "1.000"}));
   CHECK(has_row(r.out, {"catch_abreast", "9-10", "easy", "3", "13.4", "3.4", "43.4", "0.250"}));
   CHECK(has_row(r.out, {"scissors", "7", "easy", "4", "461.6", "11.62", "611.6", "0.750"}));
   CHECK(has_row(r.out, {"two_catch_underarm", "adult", "hard", "7", "7.1", "0.1", "14.1",

@@ -40,7 +40,7 @@ namespace {
 const std::string kOriginal =
     "original code's published PPO learning curves, final value near 1e8 steps, mean of 10 seeds";
 const std::vector<std::pair<std::string, double>> kGroundTruth = {
-    {"hand_over", 269.0},         {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
+    {"hand_over", 274.275},       {"catch_underarm", 17.8},      {"catch_over2underarm", 28.4},
     {"catch_abreast", 43.4},      {"two_catch_underarm", 14.1},  {"door_open_inward", 467},
     {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
     {"lift_underarm", 1432.16},   {"scissors", 611.625},         {"bottle_cap", 493.569},
@@ -417,15 +417,15 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
           "reference, and an evaluation's scores and their means", "[registry]") {
   RegTempDir dir;
   Registry reg(dir.file("r.sqlite"));
-  // hand_over: ground truth 269 (references.yaml), random 2 set here
+  // hand_over: ground truth 274.275 (references.yaml), random 2 set here
   reg.set_reference({"hand_over", "random", 2.0, "test"});
-  // by hand: (135.5 - 2) / (269 - 2) = 133.5 / 267 = 0.5
-  REQUIRE(reg.normalised("hand_over", 135.5));
-  CHECK(*reg.normalised("hand_over", 135.5) == Approx(0.5));
+  // by hand: (138.1375 - 2) / (274.275 - 2) = 136.1375 / 272.275 = 0.5
+  REQUIRE(reg.normalised("hand_over", 138.1375));
+  CHECK(*reg.normalised("hand_over", 138.1375) == Approx(0.5));
   CHECK(*reg.normalised("hand_over", 2.0) == Approx(0.0).margin(1e-12));
-  CHECK(*reg.normalised("hand_over", 269.0) == Approx(1.0));
-  CHECK(*reg.normalised("hand_over", -131.5) == Approx(-0.5));  // below random: negative
-  CHECK(*reg.normalised("hand_over", 402.5) == Approx(1.5));    // above ground truth: > 1
+  CHECK(*reg.normalised("hand_over", 274.275) == Approx(1.0));
+  CHECK(*reg.normalised("hand_over", -134.1375) == Approx(-0.5));  // below random: negative
+  CHECK(*reg.normalised("hand_over", 410.4125) == Approx(1.5));    // above ground truth: > 1
   // a random score above the return and a ground truth below it: the sign still follows
   reg.set_reference({"pen", "random", 10.0, "test"});
   reg.set_reference({"pen", "ground_truth", -10.0, "test"});
@@ -447,7 +447,7 @@ TEST_CASE("normalised score = (return - random) / (ground truth - random), empty
   std::vector<AdaptScore> scores(3);
   scores[0].task = "hand_over";
   scores[0].return_before = 2.0;   // 0
-  scores[0].return_after = 135.5;  // 0.5
+  scores[0].return_after = 138.1375;  // 0.5
   scores[1].task = "catch_underarm_raise";
   scores[1].return_before = 1.0;
   scores[1].return_after = 2.0;
@@ -665,7 +665,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     CHECK(random->value == 1.5);
     CHECK_THAT(random->source, Catch::Contains("schema version 1"));
     CHECK(reg.reference("old_task", "ground_truth")->value == 50);
-    CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(269.0));
+    CHECK(reg.reference("hand_over", "ground_truth")->value == Approx(274.275));
     // the shipped ground truths and 19 random, and hand_over_free's two
     CHECK(reg.references().size() == 2 + kGroundTruth.size() + 19 + 2);
     // the new tables work, also for the old runs
@@ -680,7 +680,7 @@ TEST_CASE("a version-1 file with data is migrated to the current version, its da
     s.algo = "ppo";
     s.suite = "S";
     CHECK(reg.begin_run(s) == 3);
-    CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (269.0 - 1.5)));
+    CHECK(*reg.normalised("hand_over", 16.15) == Approx((16.15 - 1.5) / (274.275 - 1.5)));
   }
   RawDb raw(path);
   CHECK(raw.value("PRAGMA user_version") == "5");
@@ -860,8 +860,8 @@ TEST_CASE("the age report: latest score per task, references, normalised, age or
     reg.finish_run(id, r, {});  // no per-task scores: the final return stands for the task
     return id;
   };
-  task_run("hand_over", 269.0);                          // older: replaced by the next
-  const int64_t ho = task_run("hand_over", 135.5);       // (135.5 - 2) / 267 = 0.5
+  task_run("hand_over", 274.275);                        // older: replaced by the next
+  const int64_t ho = task_run("hand_over", 138.1375);    // (138.1375 - 2) / 272.275 = 0.5
   const int64_t lift = task_run("lift_underarm", 682.16);  // 250 / 1000 = 0.25
   task_run("catch_underarm", 10);                        // no random score: not normalised
   const auto rep = registry::age_report(reg);
