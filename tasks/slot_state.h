@@ -35,6 +35,10 @@ struct SlotState {
   bool bonus_paid = false;   // the one-off goal bonus of this episode was paid
   unsigned goals_reached = 0;  // bit i: goal i was reached in this episode (families that
                                // count goals one by one: re_orientation's goal_mode each)
+  // families that pay progress towards a goal (re_orientation's rotation_progress): each goal's
+  // error at the last step, valid once has_last_error (cleared at every reset)
+  std::array<double, kMaxGoals> last_error{};
+  bool has_last_error = false;
   bool nonfinite_obs = false;  // the last observation had a non-finite value (set to 0): the
                                // next step faults the world instead of evaluating it
   // goal poses: position (3) then orientation (w, x, y, z)

@@ -47,7 +47,7 @@ ReOrientationParams load(const std::string& file) {
   {
     auto r = root.child("reward");
     r.allow_keys({"dist_scale", "rot_scale", "rot_eps", "action_penalty", "goal_bonus",
-                  "rotation_tolerance", "goal_mode"});
+                  "rotation_tolerance", "goal_mode", "rotation_progress"});
     p.dist_scale = read_number(r, "dist_scale", -1e4, 0, "a scale <= 0");
     p.rot_scale = read_number(r, "rot_scale", 0, 1e4, "a scale >= 0");
     p.rot_eps = read_number(r, "rot_eps", 1e-6, 10, "an epsilon in [1e-6, 10] rad");
@@ -58,6 +58,8 @@ ReOrientationParams load(const std::string& file) {
     const auto m = mode.as<std::string>();
     if (m != "both" && m != "each") mode.fail("'both' or 'each'", mode.repr());
     p.each_goal = m == "each";
+    if (r.has("rotation_progress"))  // optional: off (0) when absent
+      p.rotation_progress = read_number(r, "rotation_progress", 0, 1e4, "a scale in [0, 1e4] per rad");
   }
   if (root.has("curriculum")) {  // optional: off when absent
     auto c = root.child("curriculum");
@@ -95,6 +97,9 @@ TaskSpec make_spec() {
                      "(goal_mode both); goal_bonus for each cube whose theta is, then a new "
                      "goal for it (goal_mode each)"},
       {"action_penalty", "action_penalty x sum of squared actions"},
+      {"rotation_progress", "rotation_progress x the decrease of theta1 + theta2 since the last "
+                            "step (0 at an episode's first step and with rotation_progress 0, "
+                            "the default)"},
   };
   return s;
 }
@@ -118,6 +123,7 @@ ReOrientation::ReOrientation(const TaskSpec& spec, ReOrientationParams p)
   g.rot_scale = p_.rot_scale;
   g.rot_eps = p_.rot_eps;
   g.action_penalty = p_.action_penalty;
+  g.rotation_progress = p_.rotation_progress;
   g.goal_bonus = p_.goal_bonus;
   g.rotation_tolerance = p_.rotation_tolerance;
   g.each_goal = p_.each_goal;
@@ -131,6 +137,7 @@ ReOrientation::ReOrientation(const TaskSpec& spec, ReOrientationParams p)
   g.t_rot[1] = spec.term_index("rotation2");
   g.t_bonus = spec.term_index("goal_bonus");
   g.t_action = spec.term_index("action_penalty");
+  g.t_progress = spec.term_index("rotation_progress");
 }
 
 sim::SceneBuilder ReOrientation::scene(const sim::HandSpec& right_hand,

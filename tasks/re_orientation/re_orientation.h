@@ -20,7 +20,7 @@ struct ReOrientationParams {
   double hand_dof_noise = 0.2;
   // reward: dist_scale (d1 + d2) + rot_scale / (theta_i + rot_eps) + action_penalty sum(a^2)
   double dist_scale = -10, rot_scale = 1, rot_eps = 0.1, action_penalty = -0.0002;
-  double goal_bonus = 500, rotation_tolerance = 0.1;
+  double goal_bonus = 500, rotation_tolerance = 0.1, rotation_progress = 0;
   bool each_goal = false;  // goal_mode: "both" (false) or "each" (true), README
   // curriculum (README "Learning"; ReOrientationProgram says what the values do)
   bool curriculum = false;

@@ -28,7 +28,8 @@ struct ReOrientationProgram {
   bool random_object_rotation = true, random_goal_rotation = true;
   double hand_dof_noise = 0;
   // reward: dist_scale (d1 + d2) + rot_scale / (theta_i + rot_eps) + action_penalty sum(a^2)
-  double dist_scale = 0, rot_scale = 0, rot_eps = 0, action_penalty = 0;
+  // + rotation_progress sum_i (theta_i at the last step - theta_i) (0: off, the default)
+  double dist_scale = 0, rot_scale = 0, rot_eps = 0, action_penalty = 0, rotation_progress = 0;
   double goal_bonus = 0, rotation_tolerance = 0;
   bool each_goal = false;  // goal_mode each: a cube at its goal gets its own new goal
   // curriculum (off by default; README "Learning"): a slot's level L (TaskParams::level) starts
@@ -39,7 +40,7 @@ struct ReOrientationProgram {
   bool curriculum = false;
   double curriculum_start = 0, curriculum_up = 0, curriculum_down = 0;
   double drop_height = 0;
-  int t_pos = -1, t_rot[2] = {-1, -1}, t_bonus = -1, t_action = -1;
+  int t_pos = -1, t_rot[2] = {-1, -1}, t_bonus = -1, t_action = -1, t_progress = -1;
 };
 static_assert(std::is_trivially_copyable_v<ReOrientationProgram>,
               "copied to the device as bytes");
@@ -126,7 +127,9 @@ BIDEX_HD void re_orientation_goal_error(const ReOrientationProgram& p,
 // success and new goals (drawn from the world's stream) with their markers moved. goal_mode
 // each: every cube at its goal gives a bonus and gets a new goal (cubes at their goals at the
 // same step share one new orientation); success once both have reached one in the episode.
-// Ends when a cube falls.
+// rotation_progress (when not 0) pays the decrease of each cube's rotation distance since the
+// last step of the episode (nothing at its first step); a cube's new goal restarts its count
+// from its distance to that goal. Ends when a cube falls.
 template <class Real>
 BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
                                       const sim::WorldRows<Real>& w, SlotState& st, SlotRng& rng,
@@ -161,6 +164,18 @@ BIDEX_HD bool re_orientation_evaluate(const ReOrientationProgram& p,
     const double from[4] = {last[3], last[4], last[5], last[6]};
     re_orientation_new_goals(p, st, rng, at, from);
     re_orientation_place_markers(p, st, w.mocap_pos, w.mocap_quat);
+  }
+  if (p.rotation_progress != 0) {
+    Real gain = 0;
+    for (int i = 0; i < 2; ++i) {
+      if (st.has_last_error) gain += Real(st.last_error[i]) - th[i];
+      if (at & (1u << i)) re_orientation_goal_error(p, w, st, i, &d[i], &th[i]);  // its new goal
+      st.last_error[i] = th[i];
+    }
+    st.has_last_error = true;
+    terms[p.t_progress] = Real(p.rotation_progress) * gain;
+  } else {
+    terms[p.t_progress] = 0;
   }
   return fell;
 }

@@ -69,7 +69,7 @@ const std::vector<PaperLayout>& layouts() {
         {"goal1.pose", 411, 417}, {"goal1.rot_diff", 418, 421}, {"object2.pose", 422, 428},
         {"object2.linvel", 429, 431}, {"object2.angvel", 432, 434}, {"goal2.pose", 435, 441},
         {"goal2.rot_diff", 442, 445}},
-       {"position", "rotation1", "rotation2", "goal_bonus", "action_penalty"}},
+       {"position", "rotation1", "rotation2", "goal_bonus", "action_penalty", "rotation_progress"}},
       {"block_stack", 428, 250,
        {{"block1.pose", 398, 404}, {"block1.linvel", 405, 407}, {"block1.angvel", 408, 410},
         {"goal.pose", 411, 417}, {"goal.rot_diff", 418, 421}, {"block1.pos", 422, 424},
@@ -763,6 +763,63 @@ TEST_CASE("oracle: re_orientation's goal_mode each pays each cube at its goal an
   sync(*env, 0);
   evaluate(*env, 0, t);
   CHECK(t[term(*env, "goal_bonus")] == 1000);
+}
+
+TEST_CASE("re_orientation's rotation_progress pays each step's decrease of theta1 + theta2, from "
+          "a new goal's distance after a goal, and nothing when off", "[tasks][manip][reward]") {
+  TaskTempDir dir;
+  auto env = make_env("re_orientation", 1, 3, 0,
+                      edited_yaml(dir, "re_orientation", {{"rotation_progress", "20"}}));
+  const Q g = qaxis(0.3, -0.5, 0.8, 1.1);
+  set_goal(*env, 0, 0, {0, -0.39, 0.6}, g);
+  set_goal(*env, 0, 1, {0, -0.76, 0.6}, g);
+  auto turn = [&](double a1, double a2) {  // cube i a_i rad from its goal
+    place_object(*env, 0, "object1", {0, -0.39, 0.6}, qmul(qaxis(0, 0, 1, a1), g));
+    place_object(*env, 0, "object2", {0, -0.76, 0.6}, qmul(qaxis(1, 0, 0, a2), g));
+    sync(*env, 0);
+  };
+  std::vector<double> t;
+  turn(0.3, 0.5);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "rotation_progress")] == 0);  // the episode's first step: nothing to compare
+  turn(0.2, 0.4);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "rotation_progress")] == Approx(20 * (0.1 + 0.1)).epsilon(1e-9));
+  turn(0.25, 0.3);  // cube 1 turned away by 0.05, cube 2 on by 0.1
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "rotation_progress")] == Approx(20 * (-0.05 + 0.1)).epsilon(1e-9));
+  // both at their goals: the bonus and new goals; the gain up to the goals is paid
+  turn(0, 0);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "goal_bonus")] == 500);
+  CHECK(t[term(*env, "rotation_progress")] == Approx(20 * (0.25 + 0.3)).epsilon(1e-9));
+  // held still at the old goals, now away from the new ones: no charge for the jump of the goal
+  const Q now = re_orientation_goal_q(*env, 0);
+  CHECK(tasks::math::rot_distance(now.data(), g.data()) > 0.1);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "rotation_progress")] == Approx(0).margin(1e-9));
+  // a reset starts the count again
+  env->reset();
+  place_object(*env, 0, "object1", {0, -0.39, 0.6}, re_orientation_goal_q(*env, 0));
+  sync(*env, 0);
+  evaluate(*env, 0, t);
+  CHECK(t[term(*env, "rotation_progress")] == 0);
+
+  // off (the default YAML's 0): the term stays 0 while the cubes turn
+  auto plain = make_env("re_orientation", 1, 3);
+  set_goal(*plain, 0, 0, {0, -0.39, 0.6}, g);
+  for (double a : {0.5, 0.2}) {
+    place_object(*plain, 0, "object1", {0, -0.39, 0.6}, qmul(qaxis(0, 0, 1, a), g));
+    sync(*plain, 0);
+    evaluate(*plain, 0, t);
+    CHECK(t[term(*plain, "rotation_progress")] == 0);
+  }
+  CHECK_FALSE(plain->slot_state(0).has_last_error);
+  // a negative scale is refused, naming the key
+  CHECK_THROWS_WITH(make_env("re_orientation", 1, 3, 0,
+                             edited_yaml(dir, "re_orientation", {{"rotation_progress", "-1"}},
+                                         "neg.yaml")),
+                    Catch::Contains("rotation_progress") && Catch::Contains("-1"));
 }
 
 TEST_CASE("re_orientation's curriculum: goals turned at most level x pi, the level up at each goal "
