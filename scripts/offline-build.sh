@@ -5,6 +5,7 @@
 #
 #   scripts/offline-build.sh bundle [DEPS]          # where apt works: the .debs and the wheel (default .deps/)
 #   scripts/offline-build.sh bundle-gpu [DEPS]      # the same plus the GPU backend's wheels
+#   scripts/offline-build.sh packages               # the Debian packages a bundle downloads
 #   scripts/offline-build.sh split [DEPS] [PARTS]   # DEPS as parts that fit beside the tree (default .parts/)
 #   scripts/offline-build.sh join  [PARTS] [DEPS]   # on the target: the parts back into DEPS
 #   scripts/offline-build.sh build  [DEPS] [BUILD]  # on the target: unpack, configure, build
@@ -17,20 +18,30 @@
 # through the local PyTorch (python3 -c 'import torch; print(torch.utils.cmake_prefix_path)', or
 # $BIDEX_TORCH_PREFIX) so tensors go to its GPU, and links with an old-style rpath so that the
 # bundled libraries are found at run time without LD_LIBRARY_PATH.
+# BIDEX_BUNDLE_RENDER=0: a bundle without the renderer's packages (OpenGL, OSMesa and the LLVM it
+# pulls in, libpng: 44.6 MB of the GPU bundle's 255.6, bench/results/tree-and-bundle-size-2core.txt);
+# `build` then configures without `bidex render` (BIDEX_RENDER_GL AUTO finds no OpenGL), as the
+# GPU leases build anyway (-DBIDEX_RENDER_GL=NONE), which carry the bundle in parts a call.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 mujoco_version=3.17.0  # as cmake/BidexMuJoCo.cmake
 debs=(libyaml-cpp0.7 libyaml-cpp-dev libsqlite3-0 libsqlite3-dev catch2 libeigen3-dev
       libcli11-dev nlohmann-json3-dev librandom123-dev
-      # headless rendering (sim/render): OpenGL headers, OSMesa (software llvmpipe, opened at the first render)
-      # with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
-      libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0
-      libosmesa6 libosmesa6-dev libglapi-mesa libllvm15 libz3-4 libedit2 libbsd0 libmd0
-      libxml2 libicu72 libpng16-16 libpng-dev
       # offline datasets (offline/): HDF5 (serial) with its compression libraries, and OpenSSL's
       # libcrypto (SHA-256 checksums; libhdf5 links it too)
       libhdf5-dev libhdf5-103-1 libsz2 libaec0 libssl-dev libssl3)
+# headless rendering (sim/render): OpenGL headers, OSMesa (software llvmpipe, opened at the first
+# render) with what Ubuntu 24.04 lacks of its LLVM's dependencies, and libpng (~44 MB of .debs)
+render_debs=(libgl-dev libglx-dev libopengl-dev libgl1 libglx0 libopengl0 libglvnd0
+             libosmesa6 libosmesa6-dev libglapi-mesa libllvm15 libz3-4 libedit2 libbsd0 libmd0
+             libxml2 libicu72 libpng16-16 libpng-dev)
+case "${BIDEX_BUNDLE_RENDER:-1}" in
+  1) debs+=("${render_debs[@]}") ;;
+  0) ;;
+  *) echo "offline-build: BIDEX_BUNDLE_RENDER must be 1 (the default: the renderer's packages) or 0 (without them), not '${BIDEX_BUNDLE_RENDER}'" >&2
+     exit 2 ;;
+esac
 
 gpu_wheels=("mujoco==$mujoco_version" warp-lang==1.19.0 mujoco-warp==4.0.0 pybind11==2.13.6)
 # A part's size: $BIDEX_PART_SIZE, else what fits beside the tracked tree in a transfer of 64 MiB
@@ -48,6 +59,9 @@ default_part_size() {
 mode=${1:-}
 deps=$(realpath -m "${2:-.deps}")
 case "$mode" in
+  packages)
+    printf '%s\n' "${debs[@]}"
+    ;;
   bundle|bundle-gpu)
     mkdir -p "$deps"
     (cd "$deps" && apt-get download "${debs[@]}")
@@ -111,7 +125,7 @@ case "$mode" in
     echo "build: $build/apps/bidex (data: BIDEX_DATA_DIR=$(pwd) if the tree moves)"
     ;;
   *)
-    sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'
+    sed -n '2,24p' "$0" | sed 's/^# \{0,1\}//'
     exit 2
     ;;
 esac

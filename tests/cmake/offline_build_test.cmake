@@ -1,7 +1,10 @@
 # scripts/offline-build.sh, the path every GPU lease builds by: `split` and `join` give back the
-# bundle's files byte for byte, and `join` and `build` stop with a message naming what is missing.
+# bundle's files byte for byte, `join` and `build` stop with a message naming what is missing,
+# and `packages` lists the bundle's Debian packages, without the renderer's under
+# BIDEX_BUNDLE_RENDER=0.
 # Run by ctest (tests/CMakeLists.txt):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -P offline_build_test.cmake
+cmake_policy(VERSION 3.20)  # IN_LIST, and lists that keep empty elements
 file(REMOVE_RECURSE "${WORK}")
 file(MAKE_DIRECTORY "${WORK}")
 set(script "${SRC}/scripts/offline-build.sh")
@@ -44,5 +47,40 @@ if(NOT rc EQUAL 0)
 endif()
 run(build-nowheel FALSE build "${WORK}/debs" "${WORK}/build2")
 expect_text(build-nowheel "no mujoco-3.17.0-cp" "wheel in ${WORK}/debs" "BIDEX_TARGET_PYTHON=")
+
+# the packages a bundle downloads: the renderer's by default, without them under
+# BIDEX_BUNDLE_RENDER=0 (the GPU leases' bundle), the rest the same; another value is refused
+run_script(pkgs TRUE bash "${script}" packages)
+run_script(pkgs-norender TRUE env BIDEX_BUNDLE_RENDER=0 bash "${script}" packages)
+string(REPLACE "\n" ";" all "${out_pkgs}")
+string(REPLACE "\n" ";" lean "${out_pkgs-norender}")
+list(FILTER all EXCLUDE REGEX "^$")
+list(FILTER lean EXCLUDE REGEX "^$")
+foreach(p IN ITEMS libosmesa6 libllvm15 libgl-dev libpng-dev)
+  if(NOT p IN_LIST all)
+    message(SEND_ERROR "packages: ${p} missing from the default bundle:\n${out_pkgs}")
+  endif()
+  if(p IN_LIST lean)
+    message(SEND_ERROR "packages: ${p} in the bundle without the renderer:\n${out_pkgs-norender}")
+  endif()
+endforeach()
+foreach(p IN LISTS lean)
+  if(NOT p IN_LIST all)
+    message(SEND_ERROR "packages: ${p} only in the bundle without the renderer")
+  endif()
+endforeach()
+foreach(p IN ITEMS libyaml-cpp-dev libhdf5-dev libssl-dev catch2)
+  if(NOT p IN_LIST lean)
+    message(SEND_ERROR "packages: ${p} missing from the bundle without the renderer:\n${out_pkgs-norender}")
+  endif()
+endforeach()
+list(LENGTH all n_all)
+list(LENGTH lean n_lean)
+math(EXPR n_render "${n_all} - ${n_lean}")
+if(NOT n_render EQUAL 19)
+  message(SEND_ERROR "packages: ${n_render} renderer packages left out, expected 19")
+endif()
+run_script(pkgs-bad FALSE env BIDEX_BUNDLE_RENDER=no bash "${script}" packages)
+expect_text(pkgs-bad "BIDEX_BUNDLE_RENDER must be 1" "not 'no'")
 
 file(REMOVE_RECURSE "${WORK}")
