@@ -59,7 +59,8 @@ ReOrientationParams load(const std::string& file) {
     if (m != "both" && m != "each") mode.fail("'both' or 'each'", mode.repr());
     p.each_goal = m == "each";
     if (r.has("rotation_progress"))  // optional: off (0) when absent
-      p.rotation_progress = read_number(r, "rotation_progress", 0, 1e4, "a scale in [0, 1e4] per rad");
+      p.rotation_progress =
+          read_number(r, "rotation_progress", 0, 1e4, "a scale in [0, 1e4] per rad");
   }
   if (root.has("curriculum")) {  // optional: off when absent
     auto c = root.child("curriculum");
