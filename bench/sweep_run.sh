@@ -26,8 +26,9 @@
 #       CPU path (under the task's own YAML when NAME.yaml turns a curriculum on). Once every
 #       lane of its GPU is through its runs, a lane that has time left resumes, towards 100M,
 #       its runs whose return or success still rose over their last 10M slot-steps, and
-#       evaluates them again. Every run stops 240 s before the deadline, SECONDS
-#       after this call, whatever it has reached, and is evaluated by then.
+#       evaluates them again. Every run stops training $SWEEP_RESERVE s (default 240) before
+#       the deadline, SECONDS after this call, whatever it has reached, and is evaluated by the
+#       deadline (a suite's run: $SWEEP_SUITE_RESERVE, below). start prints both times.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute;
 #       returns as soon as every lane is done (its last line: "all N lanes done")
@@ -76,7 +77,10 @@ runs=${SWEEP_RUNS:-/tmp/bidex-sweep}
 steps=${SWEEP_STEPS:-50000000}
 slots=${SWEEP_SLOTS:-16384}    # SWEEP_SLOTS and SWEEP_DEVICE=cpu: a small rehearsal without a GPU
 device=${SWEEP_DEVICE:-cuda}
-reserve=240  # seconds a run stops before the deadline, for its evaluation (8 threads)
+# seconds a run stops before the deadline, for its evaluation (256 episodes on 8 threads: 2-19 s
+# each in the eighteenth lease, two at a time on 32 cores, eval.txt in bench/results/sweep-h200x2;
+# more with eight lanes evaluating at once); a lease with few lanes can keep less
+reserve=${SWEEP_RESERVE:-240}
 mkdir -p "$out" "$runs"
 
 suite_slots=${SWEEP_SUITE_SLOTS:-65536}     # a suite's slots in all (the MT20 pack's efficient size)
@@ -87,6 +91,12 @@ suite_episodes=${SWEEP_SUITE_EPISODES:-64}  # a suite's evaluation: episodes per
 # only, an MT20 run ended 211 s after its planned stop (214 s of setup;
 # bench/results/suites-h100x4/README.md) and the seventeenth lease's catch runs 94 s after theirs
 suite_reserve=${SWEEP_SUITE_RESERVE:-600}
+for v in reserve suite_reserve; do
+  [[ ${!v} =~ ^[0-9]+$ ]] && ((${!v} >= 10)) || {
+    echo "sweep_run: SWEEP_${v^^} must be a whole number of seconds, at least 10, not '${!v}'" >&2
+    exit 2
+  }
+done
 
 # is_suite NAME: exit 0 when NAME is a suite of configs/suites (MT20: multi-task PPO on its pack)
 is_suite() { [[ -f configs/suites/$1.yaml ]]; }
