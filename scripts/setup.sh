@@ -16,7 +16,8 @@ packages=(build-essential cmake ninja-build ccache git pkg-config
           libhdf5-dev libssl-dev      # offline datasets: HDF5 files, SHA-256 checksums
           libopenblas0-pthread        # LibTorch's CPU matrix products: 2-4.5x faster updates than
                                       # the reference BLAS (bench/results/blas-2core.txt)
-          librsvg2-bin)               # rsvg-convert: PNG copies of SVG plots (registry report age)
+          librsvg2-bin                # rsvg-convert: PNG copies of SVG plots (registry report age)
+          python3-yaml)               # the bench scripts' YAML (bench/sweep_*.py and their test)
 build_dir=${BIDEX_BUILD_DIR:-build}
 
 if [[ "${1:-}" != "--no-apt" ]]; then

@@ -1,0 +1,85 @@
+# The PPO sweep's committed figures are what its scripts make from the committed run folders:
+# - bench/sweep_time_to_goal.py, given the folders its output's header names, writes
+#   configs/registry/time_to_goal.yaml (which the registry loads) byte for byte;
+# - bench/sweep_table.py, given the folders of the command in bench/results/sweep-h100x4/README.md,
+#   prints that README's table "All leases" and draws its figure sweep-curves.svg byte for byte;
+#   the folders include suites' folders, whose suite runs the table leaves out (is_suite in
+#   bench/sweep_collect.py; sweep_time_to_goal.py once stopped at them).
+# A lease's new folder, a changed reference or a changed script that was not drawn again fails here.
+# Run by ctest (tests/CMakeLists.txt), with python3 and its yaml module (python3-yaml):
+#   cmake -DSRC=<source> -DWORK=<scratch folder> -DBIDEX=<bidex binary> -DPYTHON=<python3>
+#         -P sweep_figures_test.cmake
+cmake_policy(VERSION 3.20)
+file(REMOVE_RECURSE "${WORK}")
+file(MAKE_DIRECTORY "${WORK}")
+include("${CMAKE_CURRENT_LIST_DIR}/script_checks.cmake")
+
+if(NOT PYTHON)
+  message(FATAL_ERROR "no python3 found (Debian: python3 with python3-yaml, which scripts/setup.sh installs)")
+endif()
+execute_process(COMMAND "${PYTHON}" -c "import yaml" RESULT_VARIABLE rc ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "${PYTHON} cannot import yaml (Debian: python3-yaml, which scripts/setup.sh "
+                      "installs): ${err}")
+endif()
+
+# time to the goal: the folders from the header's command line
+set(ttg "${SRC}/configs/registry/time_to_goal.yaml")
+file(STRINGS "${ttg}" command REGEX "^# Command: bench/sweep_time_to_goal.py ")
+list(LENGTH command n)
+if(NOT n EQUAL 1)
+  message(FATAL_ERROR "${ttg}: expected one '# Command: bench/sweep_time_to_goal.py DIR...' line, found ${n}")
+endif()
+string(REGEX REPLACE "^# Command: bench/sweep_time_to_goal.py " "" dirs "${command}")
+separate_arguments(dirs UNIX_COMMAND "${dirs}")
+execute_process(COMMAND "${PYTHON}" bench/sweep_time_to_goal.py ${dirs} --bidex "${BIDEX}"
+                        --out "${WORK}/time_to_goal.yaml"
+                WORKING_DIRECTORY "${SRC}" RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(SEND_ERROR "sweep_time_to_goal.py: exit ${rc}:\n${out}${err}")
+endif()
+expect_same_file("sweep_time_to_goal.py's output, against the shipped file" "${ttg}"
+                 "${WORK}/time_to_goal.yaml")
+
+# the table and the figure: the folders of the README's command (a block of lines ending in
+# backslashes, from `bench/sweep_table.py` to `--out bench/results/sweep-h100x4`)
+set(readme "${SRC}/bench/results/sweep-h100x4/README.md")
+file(READ "${readme}" text)
+string(FIND "${text}" "    bench/sweep_table.py " at)
+if(at EQUAL -1)
+  message(FATAL_ERROR "${readme}: no indented 'bench/sweep_table.py' command")
+endif()
+string(SUBSTRING "${text}" ${at} -1 rest)
+string(FIND "${rest}" "--out bench/results/sweep-h100x4" end)
+if(end EQUAL -1)
+  message(FATAL_ERROR "${readme}: the sweep_table.py command lacks '--out bench/results/sweep-h100x4'")
+endif()
+string(SUBSTRING "${rest}" 0 ${end} cmd)
+string(REPLACE "\\\n" " " cmd "${cmd}")
+string(REGEX REPLACE "^ *bench/sweep_table.py " "" cmd "${cmd}")
+separate_arguments(dirs UNIX_COMMAND "${cmd}")
+execute_process(COMMAND "${PYTHON}" bench/sweep_table.py ${dirs} --out "${WORK}/figure"
+                WORKING_DIRECTORY "${SRC}" RESULT_VARIABLE rc OUTPUT_VARIABLE table ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(SEND_ERROR "sweep_table.py: exit ${rc}:\n${err}")
+endif()
+expect_same_file("sweep_table.py's figure, against the committed one"
+                 "${SRC}/bench/results/sweep-h100x4/sweep-curves.svg" "${WORK}/figure/sweep-curves.svg")
+# the README's table: the first block of lines starting with '|' after "## All leases"
+string(FIND "${text}" "\n## All leases\n" sec)
+string(SUBSTRING "${text}" ${sec} -1 sec_text)
+string(FIND "${sec_text}" "\n|" first)
+string(SUBSTRING "${sec_text}" ${first} -1 sec_text)
+string(REGEX MATCH "^(\n\\|[^\n]*)+" block "${sec_text}")
+string(SUBSTRING "${block}" 1 -1 block)  # without the leading newline
+string(STRIP "${table}" table)
+if(NOT block STREQUAL table)
+  file(WRITE "${WORK}/readme-table.md" "${block}\n")
+  file(WRITE "${WORK}/printed-table.md" "${table}\n")
+  message(SEND_ERROR "the README's table 'All leases' differs from what sweep_table.py prints: "
+                     "diff ${WORK}/readme-table.md ${WORK}/printed-table.md")
+endif()
+string(FIND "${table}" "| MT20" mt20)
+if(NOT mt20 EQUAL -1)
+  message(SEND_ERROR "sweep_table.py printed a suite's run (MT20) from the suites' folders")
+endif()
