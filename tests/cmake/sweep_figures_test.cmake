@@ -1,6 +1,8 @@
 # The PPO sweep's committed figures are what its scripts make from the committed run folders:
 # - bench/sweep_time_to_goal.py, given the folders its output's header names, writes
 #   configs/registry/time_to_goal.yaml (which the registry loads) byte for byte;
+# - `bidex registry report age` from a new registry (the shipped references and that file) draws
+#   bench/results/sweep-h100x4/age-time-to-goal.svg and .txt byte for byte;
 # - bench/sweep_table.py, given the folders of the command in bench/results/sweep-h100x4/README.md,
 #   prints that README's table "All leases" and draws its figure sweep-curves.svg byte for byte;
 #   the folders include suites' folders, whose suite runs the table leaves out (is_suite in
@@ -40,6 +42,18 @@ if(NOT rc EQUAL 0)
 endif()
 expect_same_file("sweep_time_to_goal.py's output, against the shipped file" "${ttg}"
                  "${WORK}/time_to_goal.yaml")
+
+# the age report's figure and table, as the sweep README says they were drawn: from a new registry
+execute_process(COMMAND "${BIDEX}" registry report age --registry "${WORK}/age/r.sqlite"
+                        --out "${WORK}/age/age.svg"
+                WORKING_DIRECTORY "${SRC}" RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(SEND_ERROR "bidex registry report age: exit ${rc}:\n${out}${err}")
+endif()
+foreach(ext svg txt)
+  expect_same_file("the age report's ${ext}, against the committed one"
+                   "${SRC}/bench/results/sweep-h100x4/age-time-to-goal.${ext}" "${WORK}/age/age.${ext}")
+endforeach()
 
 # the table and the figure: the folders of the README's command (a block of lines ending in
 # backslashes, from `bench/sweep_table.py` to `--out bench/results/sweep-h100x4`)
