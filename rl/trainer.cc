@@ -415,7 +415,13 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   if (recorder) recorder->begin(obs);
   bool stopped = false, first = true;
   std::string diverged;  // why the last update's learner state is not finite (then not saved)
-  const double session_start = monotonic_seconds();
+  // when to stop as Ctrl-C would (0: never): the earlier of this session's training time limit
+  // and the command's wall-clock deadline (bidex train --time-limit, --wall-limit)
+  double stop_at = opt.stop_at_monotonic_s;
+  if (opt.time_limit_s > 0) {
+    const double t = monotonic_seconds() + opt.time_limit_s;
+    stop_at = stop_at > 0 ? std::min(stop_at, t) : t;
+  }
   StepTimes times;
   if (opt.profile) {
     env.set_profile(true);
@@ -508,10 +514,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
                      fmt("%.3g", shown_return) + " success " + fmt("%.2f", shown_success));
       bar->update(std::min(s.steps, s.cfg.steps));
     }
-    const double now = monotonic_seconds();
-    const bool out_of_time =
-        (opt.time_limit_s > 0 && now - session_start >= opt.time_limit_s) ||
-        (opt.stop_at_monotonic_s > 0 && now >= opt.stop_at_monotonic_s);
+    const bool out_of_time = stop_at > 0 && monotonic_seconds() >= stop_at;
     if (((opt.stop_after_updates > 0 && s.update >= opt.stop_after_updates) || out_of_time) &&
         s.update < total_updates) {
       stopped = true;

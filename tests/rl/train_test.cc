@@ -185,6 +185,33 @@ TEST_CASE("a wall-clock deadline stops a run after the update that passes it and
   CHECK_FALSE(test::file_exists(tmp.file("zero")));
 }
 
+TEST_CASE("a training time limit stops a run after the update that passes it and the earlier of "
+          "it and a wall-clock deadline counts", "[rl][train]") {
+  test::TaskTempDir tmp;
+  // --time-limit of a nanosecond: the first update runs, then the run stops as Ctrl-C would
+  auto o = test::quiet();
+  o.time_limit_s = 1e-9;
+  auto r1 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), tmp.file("short"), o);
+  CHECK(r1.interrupted);
+  CHECK(r1.updates == 1);
+  // an hour: the run ends on its own
+  o.time_limit_s = 3600;
+  auto r2 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), tmp.file("long"), o);
+  CHECK_FALSE(r2.interrupted);
+  CHECK(r2.updates == 4);
+  // an hour's time limit with a passed wall-clock deadline: the deadline stops it
+  o.stop_at_monotonic_s = monotonic_seconds() - 1;
+  auto r3 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), tmp.file("both"), o);
+  CHECK(r3.interrupted);
+  CHECK(r3.updates == 1);
+  // a far deadline with a nanosecond's time limit: the time limit stops it
+  o.stop_at_monotonic_s = monotonic_seconds() + 3600;
+  o.time_limit_s = 1e-9;
+  auto r4 = rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), tmp.file("both2"), o);
+  CHECK(r4.interrupted);
+  CHECK(r4.updates == 1);
+}
+
 TEST_CASE("an existing run folder is never overwritten by a new run", "[rl][train]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run");
