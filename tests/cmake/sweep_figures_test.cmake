@@ -7,6 +7,8 @@
 #   prints that README's table "All leases" and draws its figure sweep-curves.svg byte for byte;
 #   the folders include suites' folders, whose suite runs the table leaves out (is_suite in
 #   bench/sweep_collect.py; sweep_time_to_goal.py once stopped at them).
+# - bench/lane_rates.py, given the command in the header of a lease's lane-rates.txt, prints its
+#   table (the lines below its comments) byte for byte.
 # A lease's new folder, a changed reference or a changed script that was not drawn again fails here.
 # Run by ctest (tests/CMakeLists.txt), with python3 and its yaml module (python3-yaml):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -DBIDEX=<bidex binary> -DPYTHON=<python3>
@@ -96,4 +98,41 @@ endif()
 string(FIND "${table}" "| MT20" mt20)
 if(NOT mt20 EQUAL -1)
   message(SEND_ERROR "sweep_table.py printed a suite's run (MT20) from the suites' folders")
+endif()
+
+# every lane-rates.txt under bench/results made by bench/lane_rates.py: its table (the lines
+# below the header's comments) is what the command in its header prints from the committed
+# run folders (the header's machine, date and commit lines are the only ones allowed to differ)
+file(GLOB_RECURSE rates_files RELATIVE "${SRC}" "${SRC}/bench/results/*/lane-rates.txt")
+set(checked 0)
+foreach(f IN LISTS rates_files)
+  file(STRINGS "${SRC}/${f}" cmd REGEX "^# command: bench/lane_rates.py ")
+  if(NOT cmd)
+    continue()
+  endif()
+  string(REGEX REPLACE "^# command: bench/lane_rates.py " "" cmd "${cmd}")
+  separate_arguments(args UNIX_COMMAND "${cmd}")
+  execute_process(COMMAND "${PYTHON}" bench/lane_rates.py ${args}
+                  WORKING_DIRECTORY "${SRC}" RESULT_VARIABLE rc OUTPUT_VARIABLE printed ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(SEND_ERROR "bench/lane_rates.py for ${f}: exit ${rc}:\n${err}")
+    continue()
+  endif()
+  file(READ "${SRC}/${f}" committed)
+  foreach(v committed printed)
+    string(REGEX REPLACE "(^|\n)#[^\n]*" "" ${v} "${${v}}")
+    string(STRIP "${${v}}" ${v})
+  endforeach()
+  if(NOT committed STREQUAL printed)
+    string(REPLACE "/" "_" name "${f}")
+    file(WRITE "${WORK}/${name}.committed" "${committed}\n")
+    file(WRITE "${WORK}/${name}.printed" "${printed}\n")
+    message(SEND_ERROR "${f}: its table differs from what its command prints: "
+                       "diff ${WORK}/${name}.committed ${WORK}/${name}.printed")
+  endif()
+  math(EXPR checked "${checked} + 1")
+endforeach()
+if(checked LESS 2)
+  message(SEND_ERROR "expected at least 2 lane-rates.txt files made by bench/lane_rates.py "
+                     "under bench/results, found ${checked}")
 endif()
