@@ -293,8 +293,8 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
   // the sweep's time to each goal, below the scores: task, age, goal, target, slot-steps, wall
   // seconds, how it was met, slot-steps trained (configs/registry/time_to_goal.yaml)
   CHECK(has_row(r.out, {"task", "age", "goal", "target", "slot-steps", "wall_s", "by", "trained"}));
-  CHECK(has_row(r.out, {"catch_abreast", "9-10", "original_final", "43.4", "22.3M", "352",
-                        "training", "81.9M"}));
+  CHECK(has_row(r.out, {"catch_abreast", "9-10", "original_final", "43.4", "24.6M", "123",
+                        "training", "100.0M"}));
   CHECK(has_row(r.out, {"re_orientation", "18", "success", "0.8", "-", "-", "not_reached",
                         "50.1M"}));
   const std::string svg_file = dir.file("sub/age_report.svg");  // beside the registry
