@@ -41,6 +41,9 @@ struct PpoConfig {
   // PPO and MTPPO: the minibatch step's network products in bfloat16 (rl/autocast.h); the
   // parameters, gradients, optimizer and losses stay float32
   bool bf16 = false;
+  // PPO and MTPPO: the actor's and critic's layers of a width not a multiple of 8 (the
+  // observation's, the action's, the value's) padded with zeros to one (rl/policy.h, PaddedLinear)
+  bool align_widths = false;
   // advantages normalised over the whole update ("batch") or within each task of a multi-task
   // pack ("task", multi-task PPO: each row's task read from its one-hot id)
   std::string advantage_norm = "batch";

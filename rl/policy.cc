@@ -110,24 +110,49 @@ torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_
       .sum(-1);
 }
 
+namespace {
+int64_t round_up(int64_t n, int64_t to) { return (n + to - 1) / to * to; }
+
+// an initialised [in -> out] layer, padded when `align` asks for it
+void push_linear(torch::nn::Sequential& net, int64_t in, int64_t out, double gain, int64_t align) {
+  torch::nn::Linear lin(in, out);
+  torch::nn::init::orthogonal_(lin->weight, gain);
+  torch::nn::init::zeros_(lin->bias);
+  if (align > 1 && (in % align != 0 || out % align != 0))
+    net->push_back(PaddedLinear(lin->weight, lin->bias, align));
+  else
+    net->push_back(lin);
+}
+}  // namespace
+
+PaddedLinearImpl::PaddedLinearImpl(const torch::Tensor& w, const torch::Tensor& b, int64_t align)
+    : in_(w.size(1)), out_(w.size(0)) {
+  TORCH_CHECK(align >= 1, "PaddedLinear: align must be at least 1, got ", align);
+  torch::NoGradGuard ng;
+  const int64_t in_p = round_up(in_, align), out_p = round_up(out_, align);
+  weight = register_parameter("weight", torch::constant_pad_nd(w.detach(), {0, in_p - in_, 0, out_p - out_}));
+  bias = register_parameter("bias", torch::constant_pad_nd(b.detach(), {0, out_p - out_}));
+}
+
+torch::Tensor PaddedLinearImpl::forward(const torch::Tensor& x) {
+  const int64_t pad = weight.size(1) - in_;
+  auto y = torch::nn::functional::linear(pad > 0 ? torch::constant_pad_nd(x, {0, pad}) : x, weight,
+                                         bias);
+  return weight.size(0) > out_ ? y.narrow(-1, 0, out_) : y;
+}
+
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
-                          const std::string& activation, double out_gain) {
+                          const std::string& activation, double out_gain, int64_t align) {
   torch::nn::Sequential net;
   int64_t width = in;
   for (int h : hidden) {
-    torch::nn::Linear lin(width, h);
-    torch::nn::init::orthogonal_(lin->weight, std::sqrt(2.0));
-    torch::nn::init::zeros_(lin->bias);
-    net->push_back(lin);
+    push_linear(net, width, h, std::sqrt(2.0), align);
     if (activation == "elu") net->push_back(torch::nn::ELU());
     else if (activation == "relu") net->push_back(torch::nn::ReLU());
     else net->push_back(torch::nn::Tanh());
     width = h;
   }
-  torch::nn::Linear last(width, out);
-  torch::nn::init::orthogonal_(last->weight, out_gain);
-  torch::nn::init::zeros_(last->bias);
-  net->push_back(last);
+  push_linear(net, width, out, out_gain, align);
   return net;
 }
 
@@ -140,8 +165,9 @@ ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConf
       use_value_norm_(c.value_norm) {
   // orthogonal initialisation: sqrt(2) for hidden layers, 0.01 for the actor's output, 1 for the
   // critic's (the original's gains)
-  actor_ = register_module("actor", mlp(obs_dim, c.hidden, act_dim, c.activation, 0.01));
-  critic_ = register_module("critic", mlp(obs_dim, c.hidden, 1, c.activation, 1.0));
+  const int64_t align = c.align_widths ? 8 : 1;
+  actor_ = register_module("actor", mlp(obs_dim, c.hidden, act_dim, c.activation, 0.01, align));
+  critic_ = register_module("critic", mlp(obs_dim, c.hidden, 1, c.activation, 1.0, align));
   log_std_ = register_parameter("log_std", torch::full({act_dim}, std::log(c.init_std)));
   obs_norm_ = register_module("obs_norm", RunningNorm(obs_dim));
   value_norm_ = register_module("value_norm", value_tasks > 0

@@ -64,9 +64,31 @@ torch::Tensor gaussian_kl(const torch::Tensor& mu_old, const torch::Tensor& log_
 torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks);
 
 // A multilayer perceptron: `hidden` layers of `activation` (elu, relu or tanh), orthogonal
-// weights with gain sqrt 2 and `out_gain` for the output layer, zero biases.
+// weights with gain sqrt 2 and `out_gain` for the output layer, zero biases. With `align` > 1
+// a layer whose input or output width is not a multiple of `align` is a PaddedLinear of the same
+// initial weights (the network's outputs are the same up to the order of summation).
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
-                          const std::string& activation, double out_gain);
+                          const std::string& activation, double out_gain, int64_t align = 1);
+
+// A linear layer whose weight and bias carry zero rows and columns up to widths that are
+// multiples of `align`: forward() pads its input with zero columns and returns the first `out`
+// columns, so that the matrix products see rows of aligned length (a GPU's tensor-core kernels
+// want 16-byte rows, 8 bfloat16 or 4 float32 values; an observation of 422 is neither). The padded
+// entries multiply zeros and are sliced away, so they get zero gradients and stay zero under
+// Adam and gradient clipping. Its parameters are named `weight` and `bias`, as torch::nn::Linear's.
+class PaddedLinearImpl : public torch::nn::Module {
+ public:
+  // from a [out, in] layer's weight and bias
+  PaddedLinearImpl(const torch::Tensor& weight, const torch::Tensor& bias, int64_t align);
+  torch::Tensor forward(const torch::Tensor& x);
+  int64_t in_features() const { return in_; }
+  int64_t out_features() const { return out_; }
+  torch::Tensor weight, bias;  // [out padded, in padded], [out padded]
+
+ private:
+  int64_t in_, out_;
+};
+TORCH_MODULE(PaddedLinear);
 
 // Target networks: dst = keep x dst + (1 - keep) x src, parameter by parameter (keep = 0 copies).
 void polyak_update(torch::nn::Module& src, torch::nn::Module& dst, double keep);

@@ -481,6 +481,73 @@ TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the ba
   CHECK(bandit_gain(true) > 0.3);
 }
 
+TEST_CASE("PPO with align_widths pads odd widths with zeros and gives the plain update",
+          "[rl][ppo]") {
+  rl::PpoConfig c;
+  c.hidden = {64, 64};
+  c.epochs = 2;
+  c.minibatches = 2;
+  c.schedule = "fixed";
+  c.lr = 1e-3;
+  const int64_t T = 4, N = 64, D = 5, A = 3;  // the observation's, action's and value's widths odd
+  rl::PpoConfig ca = c;
+  ca.align_widths = true;
+  torch::manual_seed(23);
+  rl::ActorCritic plain(D, A, c);
+  torch::manual_seed(23);
+  rl::ActorCritic padded(D, A, ca);
+  // the same named parameters; the first and last layers padded to multiples of 8
+  const auto pp = plain->named_parameters(), pa = padded->named_parameters();
+  REQUIRE(pp.size() == pa.size());
+  CHECK(pa["actor.0.weight"].sizes() == torch::IntArrayRef({64, 8}));
+  CHECK(pa["actor.4.weight"].sizes() == torch::IntArrayRef({8, 64}));
+  CHECK(pa["actor.4.bias"].sizes() == torch::IntArrayRef({8}));
+  CHECK(pa["critic.4.weight"].sizes() == torch::IntArrayRef({8, 64}));
+  CHECK(pa["actor.2.weight"].sizes() == torch::IntArrayRef({64, 64}));  // 64: left as it is
+  // the plain parameters sit in the padded ones' corner, zeros around them
+  auto corner = [](const torch::Tensor& p, const torch::Tensor& like) {
+    auto x = p;
+    for (int64_t d = 0; d < like.dim(); ++d) x = x.narrow(d, 0, like.size(d));
+    return x;
+  };
+  auto rest = [](const torch::Tensor& p, const torch::Tensor& like) {
+    return p.abs().sum().item<double>() - p.narrow(0, 0, like.size(0)).abs().sum().item<double>() +
+           (p.dim() == 2 ? p.narrow(0, 0, like.size(0)).narrow(1, like.size(1), p.size(1) - like.size(1))
+                               .abs().sum().item<double>()
+                         : 0.0);
+  };
+  for (const auto& kv : pp) {
+    INFO(kv.key());
+    CHECK(torch::equal(corner(pa[kv.key()], kv.value()), kv.value()));
+    CHECK(rest(pa[kv.key()], kv.value()) == 0.0);
+  }
+  // the same outputs
+  torch::manual_seed(4);
+  const auto obs = torch::randn({N, D});
+  CHECK(torch::allclose(padded->mean(obs), plain->mean(obs), 1e-6, 1e-6));
+  CHECK(torch::allclose(padded->value(obs), plain->value(obs), 1e-6, 1e-6));
+  CHECK(padded->mean(obs).sizes() == torch::IntArrayRef({N, A}));
+  // the same update, within float tolerance, and the padding still zero after it
+  rl::Ppo ppo_plain(plain, c), ppo_padded(padded, ca);
+  torch::manual_seed(5);
+  const auto r = noisy_rollout(plain, T, N, D, A, 0.1);
+  const auto last = torch::randn({N});
+  torch::manual_seed(6);
+  const auto st_plain = ppo_plain.update(r, last);
+  torch::manual_seed(6);
+  const auto st_padded = ppo_padded.update(r, last);
+  CHECK(st_padded.policy_loss == Approx(st_plain.policy_loss).margin(1e-5));
+  CHECK(st_padded.value_loss == Approx(st_plain.value_loss).epsilon(1e-5));
+  double moved = 0;
+  for (const auto& kv : pp) {
+    INFO(kv.key());
+    CHECK(torch::allclose(corner(pa[kv.key()], kv.value()), kv.value(), 1e-5, 1e-6));
+    CHECK(rest(pa[kv.key()], kv.value()) == 0.0);
+    moved += kv.value().abs().sum().item<double>();
+  }
+  CHECK(moved > 0);
+}
+
 TEST_CASE("grouped running norms keep each group's moments apart", "[rl][ppo]") {
   torch::manual_seed(9);
   rl::RunningNorm grouped(3, 1e9, true), g0(1, 1e9), g2(1, 1e9);
