@@ -22,12 +22,17 @@ import shlex
 import subprocess
 import sys
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from metrics_io import open_metrics  # noqa: E402  (plain or .xz)
+
 
 def read_run(path):
     """[(wall_s, steps)] of metrics.csv at PATH, in file order; exits naming the file on bad input"""
     try:
-        with open(path, newline="") as f:
+        with open_metrics(path) as f:
             rows = list(csv.DictReader(f))
+    except FileNotFoundError as e:
+        sys.exit(f"lane_rates: {e}")
     except OSError as e:
         sys.exit(f"lane_rates: cannot read {path}: {e.strerror}")
     if not rows:

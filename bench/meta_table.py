@@ -22,6 +22,9 @@ import sys
 
 import yaml
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from metrics_io import metrics_exists, open_metrics  # noqa: E402  (plain or .xz)
+
 # the seed paper's meta-RL table: train / test mean returns
 ORIGINAL = {
     "promp": {"ML1": (0.95, 1.2), "ML4": (2.5, 0.5), "ML20": (0.02, 0.36)},
@@ -37,9 +40,10 @@ def load(path):
 def last_row(d, name):
     """steps and wall_s of a run's last metrics row (when its summary.json is missing)"""
     path = os.path.join(d, name, "metrics.csv")
-    if not os.path.exists(path):
+    if not metrics_exists(path):
         return None
-    rows = list(csv.DictReader(open(path)))
+    with open_metrics(path) as f:
+        rows = list(csv.DictReader(f))
     return rows and {"steps": int(float(rows[-1]["steps"])), "wall_s": float(rows[-1]["wall_s"])}
 
 

@@ -22,6 +22,7 @@ import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep_table import value  # noqa: E402  (a references.yaml value, plain or with its source)
+from metrics_io import metrics_exists, open_metrics  # noqa: E402  (plain or .xz)
 
 
 def section(refs, name):
@@ -68,11 +69,12 @@ def main():
     ap.add_argument("--references", default="configs/registry/references.yaml")
     a = ap.parse_args()
     path = os.path.join(a.run, "metrics.csv")
-    if not os.path.exists(path):
-        sys.exit(f"suite_train_table: {path} not found (a run folder of bidex train --suite)")
+    if not metrics_exists(path):
+        sys.exit(f"suite_train_table: {path} not found, nor {path}.xz (a run folder of bidex train --suite)")
     if not os.path.exists(a.references):
         sys.exit(f"suite_train_table: --references {a.references} not found")
-    rows = list(csv.DictReader(open(path)))
+    with open_metrics(path) as f:
+        rows = list(csv.DictReader(f))
     tasks = [c[len("return_"):] for c in (rows[0] if rows else {}) if c.startswith("return_")]
     if not tasks:
         sys.exit(f"suite_train_table: {path} has no return_TASK columns (not a suite run)")

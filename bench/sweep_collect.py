@@ -8,6 +8,7 @@ Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK[/sSEED][
 import csv, datetime, json, os, sys
 
 from atomic_io import write_json  # bench/atomic_io.py, beside this script
+from metrics_io import metrics_exists, open_metrics  # plain or .xz
 
 # The original's published PPO finals: the last row of its 10-seed learning curves, about 1e8
 # environment steps (mean over 10 seeds), for the nine tasks it published curves for.
@@ -77,8 +78,11 @@ def recent(rows, i, f):
 
 
 def updates_of(path):
-    """Every update of a metrics.csv (an empty list for a missing file)."""
-    return list(csv.DictReader(open(path))) if os.path.exists(path) else []
+    """Every update of a metrics.csv or its .xz (an empty list for a missing file)."""
+    if not metrics_exists(path):
+        return []
+    with open_metrics(path) as f:
+        return list(csv.DictReader(f))
 
 
 def ended(updates):

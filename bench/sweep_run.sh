@@ -37,7 +37,7 @@
 #       folder), to give the GPU to the others; noted in OUTDIR/stopped.txt
 #   bench/sweep_run.sh collect OUTDIR
 #       per run OUTDIR/RUN/ (which holds its commands, logs and eval.json from the start):
-#       config.yaml, run.json, metrics.csv, learning_curve.svg, summary.json and
+#       config.yaml, run.json, metrics.csv.xz (bench/metrics_io.py), learning_curve.svg, summary.json and
 #       time_to_target.json; OUTDIR/sweep.json
 #       (bench/sweep_table.py makes the table and the grid figure from it)
 #   bench/sweep_run.sh pack OUTDIR DEST
@@ -340,6 +340,7 @@ collect)
   [[ -n $gpus ]] || machine="$(nproc) cores, no GPU"
   commit=${BIDEX_COMMIT:-$(cat "$out/commit" 2>/dev/null)}
   python3 bench/sweep_collect.py "$out" "$machine" "${commit:-unknown}" $(cat "$out/lanes")
+  python3 bench/metrics_io.py compress "$out" >/dev/null  # as bench/results keeps them
   ;;
 keep)
   spec=${1:?RUN}; dest=${2:?DEST}; first=${3:-0}; count=${4:-1000}

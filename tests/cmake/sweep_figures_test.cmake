@@ -136,3 +136,36 @@ if(checked LESS 2)
   message(SEND_ERROR "expected at least 2 lane-rates.txt files made by bench/lane_rates.py "
                      "under bench/results, found ${checked}")
 endif()
+
+# bench/results keeps run metrics compressed (bench/metrics_io.py compress): no plain metrics.csv
+file(GLOB_RECURSE plain RELATIVE "${SRC}" "${SRC}/bench/results/*/metrics.csv")
+if(plain)
+  list(LENGTH plain n)
+  list(GET plain 0 first)
+  message(SEND_ERROR "${n} plain metrics.csv under bench/results (${first} first): compress them "
+                     "with bench/metrics_io.py compress bench/results")
+endif()
+# compress turns a plain metrics.csv into metrics.csv.xz, and a reader gives the same figures
+set(m "${WORK}/metrics_io")
+file(MAKE_DIRECTORY "${m}/plain/run" "${m}/packed/run")
+foreach(d plain packed)
+  file(WRITE "${m}/${d}/run/metrics.csv" "update,steps,wall_s,return\n1,1000,1.0,\n2,3000,2.0,5\n3,7000,3.5,6\n")
+endforeach()
+execute_process(COMMAND "${PYTHON}" "${SRC}/bench/metrics_io.py" compress "${m}/packed"
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0 OR NOT EXISTS "${m}/packed/run/metrics.csv.xz" OR EXISTS "${m}/packed/run/metrics.csv")
+  message(SEND_ERROR "metrics_io.py compress: exit ${rc}, expected run/metrics.csv.xz in place of "
+                     "run/metrics.csv:\n${out}${err}")
+endif()
+foreach(d plain packed)
+  execute_process(COMMAND "${PYTHON}" "${SRC}/bench/lane_rates.py" "${m}/${d}" run --window 2
+                  RESULT_VARIABLE rc OUTPUT_VARIABLE rates_${d} ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(SEND_ERROR "lane_rates.py on the ${d} metrics: exit ${rc}:\n${err}")
+  endif()
+  string(REGEX REPLACE "(^|\n)#[^\n]*" "" rates_${d} "${rates_${d}}")
+endforeach()
+if(NOT rates_plain STREQUAL rates_packed OR NOT rates_plain MATCHES "2,000")
+  message(SEND_ERROR "lane_rates.py read the compressed metrics otherwise than the plain ones:\n"
+                     "plain:${rates_plain}\ncompressed:${rates_packed}")
+endif()
