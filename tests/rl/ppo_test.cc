@@ -437,15 +437,35 @@ TEST_CASE("bfloat16 autocast holds for its scope and restores the caller's setti
   CHECK(torch::equal(m->mean(x), plain));
 }
 
-TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the bandit",
-          "[rl][ppo]") {
+// One update of each of two PPOs on the same rollout of `m` (seed 5) and last values, each
+// from the same random state (seed 6): what two settings of one update do differently.
+std::pair<rl::UpdateStats, rl::UpdateStats> twin_updates(rl::Ppo& a, rl::Ppo& b, rl::ActorCritic& m,
+                                                         int64_t T, int64_t N, int64_t D,
+                                                         int64_t A) {
+  torch::manual_seed(5);
+  const auto r = noisy_rollout(m, T, N, D, A, 0.1);
+  const auto last = torch::randn({N});
+  torch::manual_seed(6);
+  auto sa = a.update(r, last);
+  torch::manual_seed(6);
+  return {sa, b.update(r, last)};
+}
+
+// A small network's update: two epochs of two minibatches at a fixed learning rate of 1e-3.
+rl::PpoConfig small_update_config() {
   rl::PpoConfig c;
   c.hidden = {64, 64};
   c.epochs = 2;
   c.minibatches = 2;
-  c.obs_norm = false;
   c.schedule = "fixed";
   c.lr = 1e-3;
+  return c;
+}
+
+TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the bandit",
+          "[rl][ppo]") {
+  rl::PpoConfig c = small_update_config();
+  c.obs_norm = false;
   const int64_t T = 4, N = 64, D = 3, A = 2;
   torch::manual_seed(17);
   rl::ActorCritic full(D, A, c);
@@ -455,13 +475,7 @@ TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the ba
   rl::PpoConfig cb = c;
   cb.bf16 = true;
   rl::Ppo ppo_full(full, c), ppo_low(low, cb);
-  torch::manual_seed(5);
-  const auto r = noisy_rollout(full, T, N, D, A, 0.1);
-  const auto last = torch::randn({N});
-  torch::manual_seed(6);
-  const auto st_full = ppo_full.update(r, last);
-  torch::manual_seed(6);
-  const auto st_low = ppo_low.update(r, last);
+  const auto [st_full, st_low] = twin_updates(ppo_full, ppo_low, full, T, N, D, A);
   // parameters stay float32; the step differs by rounding, a small part of the step itself
   double step = 0, gap = 0;
   const auto pf = full->parameters(), pl = low->parameters();
@@ -483,12 +497,7 @@ TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the ba
 
 TEST_CASE("PPO with align_widths pads odd widths with zeros and gives the plain update",
           "[rl][ppo]") {
-  rl::PpoConfig c;
-  c.hidden = {64, 64};
-  c.epochs = 2;
-  c.minibatches = 2;
-  c.schedule = "fixed";
-  c.lr = 1e-3;
+  const rl::PpoConfig c = small_update_config();
   const int64_t T = 4, N = 64, D = 5, A = 3;  // the observation's, action's and value's widths odd
   rl::PpoConfig ca = c;
   ca.align_widths = true;
@@ -529,13 +538,7 @@ TEST_CASE("PPO with align_widths pads odd widths with zeros and gives the plain 
   CHECK(padded->mean(obs).sizes() == torch::IntArrayRef({N, A}));
   // the same update, within float tolerance, and the padding still zero after it
   rl::Ppo ppo_plain(plain, c), ppo_padded(padded, ca);
-  torch::manual_seed(5);
-  const auto r = noisy_rollout(plain, T, N, D, A, 0.1);
-  const auto last = torch::randn({N});
-  torch::manual_seed(6);
-  const auto st_plain = ppo_plain.update(r, last);
-  torch::manual_seed(6);
-  const auto st_padded = ppo_padded.update(r, last);
+  const auto [st_plain, st_padded] = twin_updates(ppo_plain, ppo_padded, plain, T, N, D, A);
   CHECK(st_padded.policy_loss == Approx(st_plain.policy_loss).margin(1e-5));
   CHECK(st_padded.value_loss == Approx(st_plain.value_loss).epsilon(1e-5));
   double moved = 0;
