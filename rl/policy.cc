@@ -130,7 +130,8 @@ PaddedLinearImpl::PaddedLinearImpl(const torch::Tensor& w, const torch::Tensor& 
   TORCH_CHECK(align >= 1, "PaddedLinear: align must be at least 1, got ", align);
   torch::NoGradGuard ng;
   const int64_t in_p = round_up(in_, align), out_p = round_up(out_, align);
-  weight = register_parameter("weight", torch::constant_pad_nd(w.detach(), {0, in_p - in_, 0, out_p - out_}));
+  weight = register_parameter(
+      "weight", torch::constant_pad_nd(w.detach(), {0, in_p - in_, 0, out_p - out_}));
   bias = register_parameter("bias", torch::constant_pad_nd(b.detach(), {0, out_p - out_}));
 }
 
