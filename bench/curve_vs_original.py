@@ -6,10 +6,10 @@ Usage: bench/curve_vs_original.py OUT.svg TITLE [--run LABEL=METRICS_CSV ...]
 e.g.   bench/curve_vs_original.py curve.svg "hand_over" --run ppo=ppo/metrics.csv \\
            --run sac=sac/metrics.csv --orig "original PPO=2e6:3.6,10e6:17.6" \\
            --line "the original's final return=30.8\""""
-import argparse, csv, os, sys
+import argparse, os, sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from metrics_io import open_metrics  # noqa: E402  (plain or .xz)
+from metrics_io import read_metrics  # noqa: E402  (plain or .xz)
 
 COLORS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf"]
 
@@ -31,8 +31,7 @@ args = ap.parse_args()
 
 runs = []
 for label, path in args.run:
-    with open_metrics(path) as f:
-        rows = [r for r in csv.DictReader(f) if r["return"] != ""]
+    rows = [r for r in read_metrics(path) if r["return"] != ""]
     steps = "steps" if rows and "steps" in rows[0] else "slot_steps"  # examples/ppo_torch.py's
     runs.append((label, [(float(r[steps]), float(r["return"])) for r in rows]))
 origs = [(label, [tuple(float(x) for x in p.split(":")) for p in pts.split(",")])

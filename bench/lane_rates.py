@@ -13,7 +13,6 @@ machine, date, commit and command; the table below it depends on the committed f
 (tests/cmake/sweep_figures_test.cmake regenerates it).
 """
 import argparse
-import csv
 import datetime
 import math
 import os
@@ -23,14 +22,13 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from metrics_io import open_metrics  # noqa: E402  (plain or .xz)
+from metrics_io import read_metrics  # noqa: E402  (plain or .xz)
 
 
 def read_run(path):
     """[(wall_s, steps)] of metrics.csv at PATH, in file order; exits naming the file on bad input"""
     try:
-        with open_metrics(path) as f:
-            rows = list(csv.DictReader(f))
+        rows = read_metrics(path)
     except FileNotFoundError as e:
         sys.exit(f"lane_rates: {e}")
     except OSError as e:

@@ -15,7 +15,6 @@ comparable. The folders may also be bench/sweep_run.sh's (SUITE-aALGO-...). Writ
 and DIR/summary.json. --baselines BDIR: the random and zero-action files are read from BDIR
 (default DIR), e.g. the baselines measured once beside runs of a later lease.
 Usage: bench/meta_table.py DIR [--baselines BDIR]"""
-import csv
 import json
 import os
 import sys
@@ -23,7 +22,7 @@ import sys
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from metrics_io import metrics_exists, open_metrics  # noqa: E402  (plain or .xz)
+from metrics_io import metrics_exists, read_metrics  # noqa: E402  (plain or .xz)
 
 # the seed paper's meta-RL table: train / test mean returns
 ORIGINAL = {
@@ -42,8 +41,7 @@ def last_row(d, name):
     path = os.path.join(d, name, "metrics.csv")
     if not metrics_exists(path):
         return None
-    with open_metrics(path) as f:
-        rows = list(csv.DictReader(f))
+    rows = read_metrics(path)
     return rows and {"steps": int(float(rows[-1]["steps"])), "wall_s": float(rows[-1]["wall_s"])}
 
 

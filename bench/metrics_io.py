@@ -4,14 +4,16 @@ compressed as metrics.csv.xz, as bench/results keeps it (xz's -9 makes the CSV a
 its size, and the lease's bundle parts are larger for every megabyte the tracked tree sheds:
 scripts/offline-build.sh sizes them from the tree).
 
-    open_metrics(path)    a text file object of PATH (a name ending in metrics.csv), or of
-                          PATH.xz when PATH is absent; FileNotFoundError naming both if neither is
+    read_metrics(path)    the rows of PATH (a name ending in metrics.csv), or of PATH.xz when PATH
+                          is absent, as csv.DictReader gives them; FileNotFoundError naming both if
+                          neither is there
     metrics_exists(path)  whether PATH or PATH.xz is there
 
     bench/metrics_io.py compress DIR...
         every metrics.csv under each DIR becomes metrics.csv.xz (written atomically, read back and
         compared before the plain file is removed); prints what it did
 """
+import csv
 import lzma
 import os
 import sys
@@ -20,12 +22,15 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from atomic_io import replacing  # noqa: E402
 
 
-def open_metrics(path):
+def read_metrics(path):
     if os.path.exists(path):
-        return open(path, newline="")
-    if os.path.exists(path + ".xz"):
-        return lzma.open(path + ".xz", "rt", newline="")
-    raise FileNotFoundError(f"{path}: no such file, nor {path}.xz")
+        f = open(path, newline="")
+    elif os.path.exists(path + ".xz"):
+        f = lzma.open(path + ".xz", "rt", newline="")
+    else:
+        raise FileNotFoundError(f"{path}: no such file, nor {path}.xz")
+    with f:
+        return list(csv.DictReader(f))
 
 
 def metrics_exists(path):
@@ -48,7 +53,7 @@ def compress(path):
 
 
 def main(argv):
-    if len(argv) < 2 or argv[0] != "compress" or argv[0] in ("-h", "--help"):
+    if len(argv) < 2 or argv[0] != "compress":
         print(__doc__.strip())
         sys.exit(0 if argv[:1] in (["-h"], ["--help"]) else 2)
     before = after = n = 0

@@ -16,13 +16,13 @@ metrics.csv does not keep a task's episode count.
 Usage: bench/suite_train_table.py RUN_DIR [--window 1e7] [--curve]
                                   [--references configs/registry/references.yaml]
 """
-import argparse, csv, json, math, os, sys
+import argparse, json, math, os, sys
 
 import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep_table import value  # noqa: E402  (a references.yaml value, plain or with its source)
-from metrics_io import metrics_exists, open_metrics  # noqa: E402  (plain or .xz)
+from metrics_io import metrics_exists, read_metrics  # noqa: E402  (plain or .xz)
 
 
 def section(refs, name):
@@ -73,8 +73,7 @@ def main():
         sys.exit(f"suite_train_table: {path} not found, nor {path}.xz (a run folder of bidex train --suite)")
     if not os.path.exists(a.references):
         sys.exit(f"suite_train_table: --references {a.references} not found")
-    with open_metrics(path) as f:
-        rows = list(csv.DictReader(f))
+    rows = read_metrics(path)
     tasks = [c[len("return_"):] for c in (rows[0] if rows else {}) if c.startswith("return_")]
     if not tasks:
         sys.exit(f"suite_train_table: {path} has no return_TASK columns (not a suite run)")

@@ -5,10 +5,10 @@ Usage: bench/sweep_collect.py OUTDIR MACHINE COMMIT RUN...   (RUN: TASK[/sSEED][
        bench/sweep_collect.py --rising METRICS_CSV   (exit 0: the run still rises)
        bench/sweep_collect.py --refresh OUTDIR   (OUTDIR/sweep.json summarised again from its runs'
            committed files by today's rules, keeping its machine, commit and date)"""
-import csv, datetime, json, os, sys
+import datetime, json, os, sys
 
 from atomic_io import write_json  # bench/atomic_io.py, beside this script
-from metrics_io import metrics_exists, open_metrics  # plain or .xz
+from metrics_io import metrics_exists, read_metrics  # plain or .xz
 
 # The original's published PPO finals: the last row of its 10-seed learning curves, about 1e8
 # environment steps (mean over 10 seeds), for the nine tasks it published curves for.
@@ -79,10 +79,7 @@ def recent(rows, i, f):
 
 def updates_of(path):
     """Every update of a metrics.csv or its .xz (an empty list for a missing file)."""
-    if not metrics_exists(path):
-        return []
-    with open_metrics(path) as f:
-        return list(csv.DictReader(f))
+    return read_metrics(path) if metrics_exists(path) else []
 
 
 def ended(updates):
