@@ -81,8 +81,6 @@ class PaddedLinearImpl : public torch::nn::Module {
   // from a [out, in] layer's weight and bias
   PaddedLinearImpl(const torch::Tensor& weight, const torch::Tensor& bias, int64_t align);
   torch::Tensor forward(const torch::Tensor& x);
-  int64_t in_features() const { return in_; }
-  int64_t out_features() const { return out_; }
   torch::Tensor weight, bias;  // [out padded, in padded], [out padded]
 
  private:
