@@ -89,14 +89,11 @@ def main(argv):
                                 formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     p.add_argument("dir", help="the sweep folder")
     p.add_argument("runs", nargs="+", metavar="RUN", help="run folders under DIR, each with metrics.csv")
-    p.add_argument("--window", type=float, default=100, help="window length in seconds (default 100)")
+    p.add_argument("--window", type=int, default=100, help="window length in whole seconds (default 100)")
     p.add_argument("--sum", action="store_true", help="add the column `all`: the runs' rates summed")
     a = p.parse_args(argv)
-    if not a.window > 0:
-        p.error(f"--window: expected a positive number of seconds, got {a.window:g}")
-    if a.window != int(a.window):
-        p.error(f"--window: expected whole seconds, got {a.window:g}")
-    a.window = int(a.window)
+    if a.window <= 0:
+        p.error(f"--window: expected a positive number of seconds, got {a.window}")
     runs = {r: read_run(os.path.join(a.dir, r, "metrics.csv")) for r in a.runs}
     print(f"# Slot-steps/s of each run in {a.window} s windows of its own training wall time "
           "(bench/lane_rates.py says how), and over the whole run")
