@@ -6,7 +6,7 @@ scripts/offline-build.sh sizes them from the tree).
 
     read_metrics(path)    the rows of PATH (a name ending in metrics.csv), or of PATH.xz when PATH
                           is absent, as csv.DictReader gives them; FileNotFoundError naming both if
-                          neither is there
+                          neither is there (PATH may also name the .xz file itself)
     metrics_exists(path)  whether PATH or PATH.xz is there
 
     bench/metrics_io.py compress DIR...
@@ -23,6 +23,8 @@ from atomic_io import replacing  # noqa: E402
 
 
 def read_metrics(path):
+    if path.endswith(".xz"):  # the compressed file named itself
+        path = path[:-3]
     if os.path.exists(path):
         f = open(path, newline="")
     elif os.path.exists(path + ".xz"):

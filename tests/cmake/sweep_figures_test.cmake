@@ -174,3 +174,13 @@ if(NOT rates_plain STREQUAL rates_packed OR NOT rates_plain MATCHES "2,000")
   message(SEND_ERROR "lane_rates.py read the compressed metrics otherwise than the plain ones:\n"
                      "plain:${rates_plain}\ncompressed:${rates_packed}")
 endif()
+# read_metrics also takes the compressed file's own name
+execute_process(COMMAND "${PYTHON}" -c "import sys; sys.path.insert(0, sys.argv[1]); \
+from metrics_io import read_metrics as r; a = r(sys.argv[2]); b = r(sys.argv[3]); \
+sys.exit(0 if a == b and len(a) == 3 else 1)"
+                        "${SRC}/bench" "${m}/plain/run/metrics.csv" "${m}/packed/run/metrics.csv.xz"
+                RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+if(NOT rc EQUAL 0)
+  message(SEND_ERROR "read_metrics of run/metrics.csv.xz by its own name: exit ${rc}, expected the "
+                     "plain file's 3 rows:\n${out}${err}")
+endif()
