@@ -13,8 +13,12 @@ eval-test-adaptN.json (bench/sweep_run.sh's SWEEP_META_ADAPT=N: N adaptation epi
 gradient steps for MAML and ProMP) is a row of its own, so that the one-episode protocol stays
 comparable. The folders may also be bench/sweep_run.sh's (SUITE-aALGO-...). Writes DIR/table.md
 and DIR/summary.json. --baselines BDIR: the random and zero-action files are read from BDIR
-(default DIR), e.g. the baselines measured once beside runs of a later lease.
-Usage: bench/meta_table.py DIR [--baselines BDIR]"""
+(default DIR), e.g. the baselines measured once beside runs of a later lease. --suites S,S: only
+those suites' rows (default ML1,ML4,ML20), e.g. a folder's suites whose rewards have not changed
+since, normalised again with today's references; --out ODIR: table.md and summary.json go there
+(made if missing) rather than into DIR, so that a folder's table of its time stays.
+Usage: bench/meta_table.py DIR [--baselines BDIR] [--suites S,S] [--out ODIR]"""
+import argparse
 import json
 import os
 import sys
@@ -23,6 +27,9 @@ import yaml
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from metrics_io import metrics_exists, read_metrics  # noqa: E402  (plain or .xz)
+from atomic_io import write_json, write_text  # noqa: E402
+
+SUITES = ["ML1", "ML4", "ML20"]
 
 # the seed paper's meta-RL table: train / test mean returns
 ORIGINAL = {
@@ -47,13 +54,15 @@ def last_row(d, name):
 
 def references():
     """{task: (random, ground truth or None)} of the references file"""
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     path = os.environ.get("BIDEX_REFERENCES") or os.path.join(
-        os.path.dirname(os.path.abspath(__file__)), "..", "configs", "registry", "references.yaml")
+        root, "configs", "registry", "references.yaml")
     doc = yaml.safe_load(open(path)) or {}
     value = lambda v: v["value"] if isinstance(v, dict) else v
     sec = lambda k: {t: value(v) for t, v in ((doc.get(k) or {}).get("values") or {}).items()}
     rnd, gt = sec("random"), sec("ground_truth")
-    return {t: (r, gt.get(t)) for t, r in rnd.items()}, os.path.relpath(path)
+    # named from the repository's root, wherever the script runs
+    return {t: (r, gt.get(t)) for t, r in rnd.items()}, os.path.relpath(path, root)
 
 
 def task_scores(ev, refs, key):
@@ -74,9 +83,8 @@ def normalised(ev, refs, key):
     return (sum(scores) / len(scores) if scores else None), len(scores), len(ev["per_task"])
 
 
-def main(d, base=None):
+def main(d, base=None, suites=SUITES, out=None):
     base = base or d
-    suites = ["ML1", "ML4", "ML20"]
     refs, refs_path = references()
     algos = sorted({n.split("-", 1)[1] for n in os.listdir(d)
                     if os.path.isdir(os.path.join(d, n)) and "-" in n})
@@ -140,16 +148,32 @@ def main(d, base=None):
     table = ["| suite | policy | train (after) | test (after) | train (before) | test (before) "
              "| train normalised (after) | test normalised (after) |",
              "|---|---|---|---|---|---|---|---|"] + rows
-    open(os.path.join(d, "table.md"), "w").write("\n".join(table) + "\n")
-    json.dump(summary, open(os.path.join(d, "summary.json"), "w"), indent=2)
+    out = out or d
+    os.makedirs(out, exist_ok=True)
+    write_text(os.path.join(out, "table.md"), "\n".join(table) + "\n")
+    write_json(os.path.join(out, "summary.json"), summary, indent=2)
     print("\n".join(table))
 
 
+def suite_list(text):
+    names = [s for s in text.split(",") if s]
+    bad = [s for s in names if s not in SUITES]
+    if bad or not names:
+        raise argparse.ArgumentTypeError(
+            f"expected suites from {','.join(SUITES)} separated by commas, got '{text}'")
+    return names
+
+
 if __name__ == "__main__":
-    args = sys.argv[1:]
-    if len(args) not in (1, 3) or (len(args) == 3 and args[1] != "--baselines"):
-        sys.exit(__doc__.rsplit("\n", 1)[-1])
-    for folder in args[::2]:
-        if not os.path.isdir(folder):
-            sys.exit(f"meta_table: {folder} is not a folder")
-    main(args[0], args[2] if len(args) == 3 else None)
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
+                                 epilog=__doc__.rsplit("\n", 1)[-1])
+    ap.add_argument("dir", help="the results folder (SUITE-ALGO/ run folders)")
+    ap.add_argument("--baselines", help="the random and zero-action files' folder (default DIR)")
+    ap.add_argument("--suites", type=suite_list, default=SUITES,
+                    help="the suites drawn, comma-separated (default ML1,ML4,ML20)")
+    ap.add_argument("--out", help="where table.md and summary.json go (default DIR)")
+    a = ap.parse_args()
+    for flag, folder in (("DIR", a.dir), ("--baselines", a.baselines)):
+        if folder is not None and not os.path.isdir(folder):
+            sys.exit(f"meta_table: {flag}: {folder} is not a folder")
+    main(a.dir, a.baselines, a.suites, a.out)
