@@ -1,4 +1,4 @@
-# Checks shared by the script tests run with cmake -P (offline_build_test.cmake, carry_test.cmake).
+# Checks shared by the script tests run with cmake -P (the *_test.cmake beside this file).
 # A failed check is a SEND_ERROR: the test goes on with its other checks and exits non-zero.
 
 # run_script(NAME EXPECT_OK COMMAND...): runs COMMAND; out_<NAME> holds what it printed, and
@@ -33,5 +33,18 @@ function(expect_same_file what a b)
   file(SHA256 "${b}" hb)
   if(NOT ha STREQUAL hb)
     message(SEND_ERROR "${what}: ${b} differs from ${a}")
+  endif()
+endfunction()
+
+# require_python_yaml(): PYTHON is set and imports yaml (the bench scripts read YAML), else the
+# test stops naming what to install
+function(require_python_yaml)
+  if(NOT PYTHON)
+    message(FATAL_ERROR "no python3 found (Debian: python3 with python3-yaml, which scripts/setup.sh installs)")
+  endif()
+  execute_process(COMMAND "${PYTHON}" -c "import yaml" RESULT_VARIABLE rc ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(FATAL_ERROR "${PYTHON} cannot import yaml (Debian: python3-yaml, which scripts/setup.sh "
+                        "installs): ${err}")
   endif()
 endfunction()

@@ -17,15 +17,7 @@ cmake_policy(VERSION 3.20)
 file(REMOVE_RECURSE "${WORK}")
 file(MAKE_DIRECTORY "${WORK}")
 include("${CMAKE_CURRENT_LIST_DIR}/script_checks.cmake")
-
-if(NOT PYTHON)
-  message(FATAL_ERROR "no python3 found (Debian: python3 with python3-yaml, which scripts/setup.sh installs)")
-endif()
-execute_process(COMMAND "${PYTHON}" -c "import yaml" RESULT_VARIABLE rc ERROR_VARIABLE err)
-if(NOT rc EQUAL 0)
-  message(FATAL_ERROR "${PYTHON} cannot import yaml (Debian: python3-yaml, which scripts/setup.sh "
-                      "installs): ${err}")
-endif()
+require_python_yaml()
 
 # time to the goal: the folders from the header's command line
 set(ttg "${SRC}/configs/registry/time_to_goal.yaml")
