@@ -43,11 +43,13 @@
 #   bench/sweep_run.sh pack OUTDIR DEST
 #       OUTDIR as DEST/sweep.tgz, without the training logs, and those logs as DEST/logs.tgz
 #   bench/sweep_run.sh keep OUTDIR RUN DEST [FIRST [COUNT]]
-#       a run folder to carry into a later lease of the same session (run folders do not outlive
-#       a lease, and DEST, an ignored folder of the checkout, does not outlive the session; MT20's
-#       checkpoint is 86 MB): the folder with its newest checkpoint only, as RUN.tar.partNN of
+#       a run folder to carry into a later lease (run folders do not outlive a lease; copied from
+#       the call's files into an ignored folder of the checkout such as .whl/keep, the parts have
+#       outlived sessions so far, without a promise that they will; MT20's checkpoint is 86 MB):
+#       the folder with its newest checkpoint only, as RUN.tar.partNN of
 #       15 MiB in DEST, parts FIRST.. (default 0), COUNT of them (default all; a device call
-#       brings back at most 64 MiB: four parts; bench/carry.sh)
+#       brings back at most 64 MiB in at most 8 files: four parts and their .sha256 leave three
+#       files for the rest of $OUT; bench/carry.sh)
 #   bench/sweep_run.sh bring OUTDIR RUN PARTS
 #       the parts of `keep` (in PARTS, all of them) joined back into RUN's run folder, which a
 #       later `start` of RUN resumes
