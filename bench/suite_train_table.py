@@ -13,6 +13,8 @@ WINDOW of slot-steps from the start (whether and how fast the run still rises).
 
 The training figures come from sampled actions. Each update's per-task mean counts once:
 metrics.csv does not keep a task's episode count.
+The references and the suites' files (configs/) are found from the source tree the script is
+in, wherever it runs.
 Usage: bench/suite_train_table.py RUN_DIR [--window 1e7] [--curve]
                                   [--references configs/registry/references.yaml]
 """
@@ -23,6 +25,8 @@ import yaml
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep_table import value  # noqa: E402  (a references.yaml value, plain or with its source)
 from metrics_io import metrics_exists, read_metrics  # noqa: E402  (plain or .xz)
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))  # the source tree
 
 
 def section(refs, name):
@@ -51,7 +55,7 @@ def members(run):
     configs/suites/SUITE.yaml), or ({}, {})"""
     info = os.path.join(run, "run.json")
     suite = (json.load(open(info)).get("suite") or "") if os.path.exists(info) else ""
-    path = suite if suite.endswith(".yaml") else os.path.join("configs", "suites", f"{suite}.yaml")
+    path = suite if suite.endswith(".yaml") else os.path.join(ROOT, "configs", "suites", f"{suite}.yaml")
     if not suite or not os.path.exists(path):
         return {}, {}
     train = (yaml.safe_load(open(path)) or {}).get("train") or []
@@ -66,7 +70,7 @@ def main():
     ap.add_argument("--window", type=float, default=1e7)
     ap.add_argument("--curve", action="store_true",
                     help="also the normalised training mean in each window from the start")
-    ap.add_argument("--references", default="configs/registry/references.yaml")
+    ap.add_argument("--references", default=os.path.join(ROOT, "configs", "registry", "references.yaml"))
     a = ap.parse_args()
     path = os.path.join(a.run, "metrics.csv")
     if not metrics_exists(path):

@@ -6,7 +6,7 @@
 #   each drawn into WORK and compared byte for byte; and its refusals of a bad --suites and a
 #   missing folder, naming them;
 # - bench/suite_train_table.py: MT20's table at 300M (suites-h200/lease15), from its run folder
-#   (run from the source root, as the script's defaults name configs/ from there).
+#   (from the source root, as its header names the run as given, and from another folder).
 # Run by ctest (tests/CMakeLists.txt):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -DPYTHON=<python3 with yaml> -P results_tables_test.cmake
 cmake_policy(VERSION 3.20)
@@ -48,3 +48,12 @@ if(NOT rc EQUAL 0)
 endif()
 expect_same_file("suite_train_table.py's MT20 table at 300M, against the committed one"
                  "${mt20}/train-table.md" "${WORK}/mt20-train-table.md")
+# from another folder: the same table (the header names the run as given)
+execute_process(COMMAND "${PYTHON}" "${SRC}/bench/suite_train_table.py" "${mt20}" --curve
+                WORKING_DIRECTORY "${WORK}" OUTPUT_VARIABLE elsewhere RESULT_VARIABLE rc ERROR_VARIABLE err)
+file(READ "${mt20}/train-table.md" committed)
+string(REPLACE "${mt20}:" "${mt20_rel}:" elsewhere "${elsewhere}")
+if(NOT rc EQUAL 0 OR NOT elsewhere STREQUAL committed)
+  message(SEND_ERROR "suite_train_table.py run from ${WORK} (exit ${rc}) gave another MT20 table "
+                     "than the committed one:\n${elsewhere}${err}")
+endif()
