@@ -2,8 +2,9 @@
 """Each reward term of sweep runs, per step, over their last slot-steps: the episode-weighted mean
 of each term's episode sum (bench/sweep_collect.py's window()) divided by the same mean of the
 episode length; also the return, the length and the success rate. What the sweep README's "what
-the trials show" quotes.
-Usage: bench/sweep_terms.py RUN_DIR [RUN_DIR...] [--last MILLIONS (default 5)]"""
+the trials show" quotes. With --every M, instead: the return, length and success rate over each
+successive window of M million slot-steps from the start (how a run rose).
+Usage: bench/sweep_terms.py RUN_DIR [RUN_DIR...] [--last MILLIONS (default 5)] [--every MILLIONS]"""
 import argparse
 import os
 import sys
@@ -16,12 +17,25 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("runs", nargs="+", metavar="RUN_DIR")
     ap.add_argument("--last", type=float, default=5.0, help="slot-steps in millions")
+    ap.add_argument("--every", type=float, help="windows of this many million slot-steps from the start")
     a = ap.parse_args()
+    if a.every is not None and not a.every > 0:
+        ap.error(f"--every: expected a positive number of million slot-steps, got {a.every:g}")
     for d in a.runs:
         rows = rows_of(os.path.join(d, "metrics.csv"))
         if not rows:
             sys.exit(f"sweep_terms: {d}/metrics.csv: no updates with ended episodes")
         hi = float(rows[-1]["steps"])
+        if a.every:
+            print(f"{d}: the episodes that ended in each window of {a.every:g}M slot-steps")
+            step, lo = a.every * 1e6, 0.0
+            while lo < hi:
+                mean = lambda key: window(rows, lo, lo + step, lambda r: num(r, key))
+                if mean("length") is not None:
+                    print(f"  ({lo / 1e6:.0f}M, {(lo + step) / 1e6:.0f}M]  return {mean('return'):10.3f}"
+                          f"  length {mean('length'):6.1f}  success {mean('success'):.4f}")
+                lo += step
+            continue
         lo = hi - a.last * 1e6
         mean = lambda key: window(rows, lo, hi, lambda r: num(r, key))
         length = mean("length")

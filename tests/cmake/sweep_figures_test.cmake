@@ -8,7 +8,8 @@
 #   the folders include suites' folders, whose suite runs the table leaves out (is_suite in
 #   bench/sweep_collect.py; sweep_time_to_goal.py once stopped at them).
 # - bench/lane_rates.py, given the command in the header of a lease's lane-rates.txt, prints its
-#   table (the lines below its comments) byte for byte.
+#   table (the lines below its comments) byte for byte; so does bench/sweep_terms.py for a run's
+#   success-by-10M.txt.
 # A lease's new folder, a changed reference or a changed script that was not drawn again fails here.
 # Run by ctest (tests/CMakeLists.txt), with python3 and its yaml module (python3-yaml):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -DBIDEX=<bidex binary> -DPYTHON=<python3>
@@ -99,22 +100,26 @@ function(strip_comments var)
   set(${var} "${t}" PARENT_SCOPE)
 endfunction()
 
-# every lane-rates.txt under bench/results made by bench/lane_rates.py: its table (the lines
-# below the header's comments) is what the command in its header prints from the committed
-# run folders (the header's machine, date and commit lines are the only ones allowed to differ)
-file(GLOB_RECURSE rates_files RELATIVE "${SRC}" "${SRC}/bench/results/*/lane-rates.txt")
+# every lane-rates.txt under bench/results made by bench/lane_rates.py, and every
+# success-by-10M.txt made by bench/sweep_terms.py --every: its table (the lines below the
+# header's comments) is what the command in its header prints from the committed run folders
+# (the header's machine, date and commit lines are the only ones allowed to differ)
+file(GLOB_RECURSE rates_files RELATIVE "${SRC}" "${SRC}/bench/results/*/lane-rates.txt"
+     "${SRC}/bench/results/*/success-by-10M.txt")
 set(checked 0)
+set(checked_terms 0)
 foreach(f IN LISTS rates_files)
-  file(STRINGS "${SRC}/${f}" cmd REGEX "^# command: bench/lane_rates.py ")
+  file(STRINGS "${SRC}/${f}" cmd REGEX "^# command: bench/(lane_rates|sweep_terms).py ")
   if(NOT cmd)
     continue()
   endif()
-  string(REGEX REPLACE "^# command: bench/lane_rates.py " "" cmd "${cmd}")
+  string(REGEX MATCH "bench/[a-z_]+.py" script "${cmd}")
+  string(REGEX REPLACE "^# command: bench/[a-z_]+.py " "" cmd "${cmd}")
   separate_arguments(args UNIX_COMMAND "${cmd}")
-  execute_process(COMMAND "${PYTHON}" bench/lane_rates.py ${args}
+  execute_process(COMMAND "${PYTHON}" ${script} ${args}
                   WORKING_DIRECTORY "${SRC}" RESULT_VARIABLE rc OUTPUT_VARIABLE printed ERROR_VARIABLE err)
   if(NOT rc EQUAL 0)
-    message(SEND_ERROR "bench/lane_rates.py for ${f}: exit ${rc}:\n${err}")
+    message(SEND_ERROR "${script} for ${f}: exit ${rc}:\n${err}")
     continue()
   endif()
   file(READ "${SRC}/${f}" committed)
@@ -127,11 +132,16 @@ foreach(f IN LISTS rates_files)
     message(SEND_ERROR "${f}: its table differs from what its command prints: "
                        "diff ${WORK}/${name}.committed ${WORK}/${name}.printed")
   endif()
-  math(EXPR checked "${checked} + 1")
+  if(script STREQUAL "bench/sweep_terms.py")
+    math(EXPR checked_terms "${checked_terms} + 1")
+  else()
+    math(EXPR checked "${checked} + 1")
+  endif()
 endforeach()
-if(checked LESS 2)
-  message(SEND_ERROR "expected at least 2 lane-rates.txt files made by bench/lane_rates.py "
-                     "under bench/results, found ${checked}")
+if(checked LESS 2 OR checked_terms LESS 1)
+  message(SEND_ERROR "expected at least 2 lane-rates.txt files made by bench/lane_rates.py and 1 "
+                     "success-by-10M.txt made by bench/sweep_terms.py under bench/results, found "
+                     "${checked} and ${checked_terms}")
 endif()
 
 # bench/results keeps run metrics compressed (bench/metrics_io.py compress): no plain metrics.csv
