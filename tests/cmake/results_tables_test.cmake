@@ -2,8 +2,8 @@
 # (configs/registry/references.yaml): a ground truth raised by a lease and not drawn again into
 # them fails here (ML20's table was once a ground truth behind).
 # - bench/meta_table.py: the meta-RL tables and summaries of ML20 (suites-h200x4, the results
-#   page's; suites-h200/lease16, RL² to 97M) and of ML1 and ML4 (gpu-meta-h100/ml1-ml4-today),
-#   each drawn into WORK and compared byte for byte; and its refusals of a bad --suites and a
+#   page's; suites-h200/lease16, RL² to 97M) and of ML1 and ML4 (gpu-meta-h100/ml1-ml4-today;
+#   MAML's, sweep-h200x2/lease21/meta), each drawn into WORK and compared byte for byte; and its refusals of a bad --suites and a
 #   missing folder, naming them;
 # - bench/suite_train_table.py: MT20's table at 300M (suites-h200/lease15), from its run folder,
 #   run from another folder than the source root.
@@ -29,6 +29,8 @@ check_meta(ml20 "${r}/suites-h200x4" "${r}/suites-h200x4" --baselines "${r}/suit
 check_meta(rl2_97m "${r}/suites-h200/lease16" "${r}/suites-h200/lease16"
            --baselines "${r}/suites-h100x4/meta")
 check_meta(ml1_ml4 "${r}/gpu-meta-h100/ml1-ml4-today" "${r}/gpu-meta-h100" --suites ML1,ML4)
+check_meta(maml_ml1_ml4 "${r}/sweep-h200x2/lease21/meta" "${r}/sweep-h200x2/lease21" --suites ML1,ML4
+           --baselines "${r}/gpu-meta-h100")
 
 run_script(meta_bad_suite FALSE "${PYTHON}" "${meta}" "${r}/gpu-meta-h100" --suites ML1,ML5 --out "${WORK}/bad")
 expect_text(meta_bad_suite "--suites" "ML1,ML4,ML20" "ML1,ML5")
