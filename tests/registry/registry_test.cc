@@ -45,7 +45,7 @@ const std::vector<std::pair<std::string, double>> kGroundTruth = {
     {"door_open_outward", 580},   {"door_close_inward", 295},    {"door_close_outward", 1038},
     {"lift_underarm", 1432.16},   {"scissors", 611.625},         {"bottle_cap", 493.569},
     {"push_block", 602.088},      {"switch", 452.254},           {"pen", 421.488},
-    {"swing_cup", 6881.44},       {"grasp_and_place", 470.251},  {"block_stack", 857.798},
+    {"swing_cup", 6881.44},       {"grasp_and_place", 434.516},  {"block_stack", 872.151},
     {"re_orientation", 939.431},  {"pour_water", 705.424}};
 
 // A task as `add_task` takes it: human age `age_min`-`age_max` months, 10 observations, 4
