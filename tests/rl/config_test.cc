@@ -2,9 +2,13 @@
 // kind of bad input, on the real configs/train/ppo.yaml.
 #include "tests/rl/rl_fixture.h"
 
+#include <dirent.h>
+
 #include <fstream>
+#include <sstream>
 
 #include "core/error.h"
+#include "metarl/algorithms.h"
 #include "sim/physics.h"
 
 using namespace bidex;
@@ -221,4 +225,96 @@ TEST_CASE("TRPO defaults are the paper's table, in a trpo section of their own",
   require_config_error([&] { trpo("hand_over", {"trpo.max_kl=0"}); }, "trpo.max_kl", "(0", "0");
   require_config_error([&] { trpo("hand_over", {"trpo.cg_iters=0"}); }, "trpo.cg_iters", ">= 1",
                        "0");
+}
+
+namespace {
+// The files of bench/sweep/ whose names end in `ext`, sorted.
+std::vector<std::string> sweep_files(const std::string& ext) {
+  const std::string dir = BIDEX_SOURCE_DIR "/bench/sweep";
+  std::vector<std::string> out;
+  DIR* d = ::opendir(dir.c_str());
+  REQUIRE(d != nullptr);
+  while (const dirent* e = ::readdir(d)) {
+    const std::string name = e->d_name;
+    if (name.size() > ext.size() && name.compare(name.size() - ext.size(), ext.size(), ext) == 0)
+      out.push_back(dir + "/" + name);
+  }
+  ::closedir(d);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+}  // namespace
+
+// bench/sweep_run.sh names these files in a lease's run specs (cNAME, eNAME: a task YAML; oNAME:
+// training overrides); a file that does not load fails its run on the GPU machine, minutes of
+// the lease later, so every one is loaded here.
+TEST_CASE("every sweep task YAML builds its task and every sweep overrides file resolves",
+          "[rl][config]") {
+  const std::vector<std::string> yamls = sweep_files(".yaml");
+  REQUIRE(yamls.size() >= 16);
+  for (const std::string& file : yamls) {
+    INFO(file);
+    // the task: an extends chain that ends at ../../tasks/<id>/<id>.yaml names it; one that ends
+    // at a whole YAML in bench/sweep (a copy of a task's) must build some task
+    std::string text = read_file(file), id;
+    for (int depth = 0; id.empty() && depth < 4; ++depth) {
+      const auto at = text.find("\nextends: ");
+      if (at == std::string::npos) break;
+      const auto begin = at + std::string("\nextends: ").size();
+      const std::string parent = text.substr(begin, text.find('\n', begin) - begin);
+      const std::string prefix = "../../tasks/";
+      if (parent.rfind(prefix, 0) == 0)
+        id = parent.substr(prefix.size(), parent.find('/', prefix.size()) - prefix.size());
+      else
+        text = read_file(BIDEX_SOURCE_DIR "/bench/sweep/" + parent);
+    }
+    if (!id.empty()) {
+      CHECK_NOTHROW(tasks::make_task(id, file));
+      continue;
+    }
+    int built = 0;
+    for (const auto& t : tasks::task_registry()) try {
+        t.make(file);
+        ++built;
+      } catch (const ConfigError&) {
+      }
+    CHECK(built > 0);
+  }
+  // an overrides file is one override per line, as the sweep passes them (-o), after '#' comments;
+  // it must resolve for at least one algorithm, on a task or a suite as the algorithm trains
+  metarl::register_algorithms();  // MAML, ProMP and RL² (the bidex command registers them)
+  const std::vector<std::string> overrides = sweep_files(".overrides");
+  REQUIRE(overrides.size() >= 8);
+  for (const std::string& file : overrides) {
+    INFO(file);
+    std::vector<std::string> lines;
+    std::istringstream in(read_file(file));
+    for (std::string line; std::getline(in, line);) {
+      line = line.substr(0, line.find('#'));
+      line.erase(0, line.find_first_not_of(" \t"));
+      line.erase(line.find_last_not_of(" \t\r") + 1);
+      if (!line.empty()) lines.push_back(line);
+    }
+    REQUIRE(!lines.empty());
+    std::vector<std::string> accepted, errors;
+    for (const rl::AlgorithmInfo& a : rl::algorithm_registry()) {
+      if (a.trains_on == rl::TrainsOn::kDataset || a.multi_agent) continue;
+      const std::string target = a.trains_on == rl::TrainsOn::kSuite ? (a.meta ? "ML4" : "MT4")
+                                                                      : "hand_over";
+      try {
+        rl::parse_train_config(
+            rl::resolve_train_yaml(rl::default_train_config(a.name), a.name, target, lines),
+            file);
+        accepted.push_back(a.name);
+      } catch (const ConfigError& e) {
+        errors.push_back(a.name + ": " + e.what());
+      }
+    }
+    INFO("every algorithm refused it:\n" << [&] {
+      std::string s;
+      for (auto& e : errors) s += e + "\n";
+      return s;
+    }());
+    CHECK(!accepted.empty());
+  }
 }
