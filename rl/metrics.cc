@@ -1,6 +1,7 @@
 #include "rl/metrics.h"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include "core/error.h"
@@ -112,10 +113,27 @@ MetricsLog MetricsLog::resume(std::string dir, std::vector<std::string> columns,
   std::vector<std::string> cols;
   std::vector<std::vector<double>> rows;
   parse_metrics_csv(text, path, cols, rows);
-  if (cols != m.columns_)
-    throw Error(path + ": its columns (" + header(cols).substr(0, header(cols).size() - 1) +
-                ") are not this run's (" +
-                header(m.columns_).substr(0, header(m.columns_).size() - 1) + ")");
+  if (cols != m.columns_) {
+    // a log written before columns were added: its columns must be this run's with some left
+    // out, in the same order, and its rows get the others empty (NaN)
+    std::vector<size_t> from;  // per column of this run, its index in the log, or npos
+    size_t j = 0;
+    for (const auto& c : m.columns_) {
+      const bool match = j < cols.size() && cols[j] == c;
+      from.push_back(match ? j++ : std::string::npos);
+    }
+    if (j != cols.size())
+      throw Error(path + ": its columns (" + header(cols).substr(0, header(cols).size() - 1) +
+                  ") are not this run's (" +
+                  header(m.columns_).substr(0, header(m.columns_).size() - 1) + ")");
+    for (auto& r : rows) {
+      std::vector<double> wide(from.size(), std::numeric_limits<double>::quiet_NaN());
+      for (size_t i = 0; i < from.size(); ++i)
+        if (from[i] != std::string::npos) wide[i] = r[from[i]];
+      r = std::move(wide);
+    }
+    cols = m.columns_;
+  }
   std::vector<std::vector<double>> later;
   for (auto& r : rows) (r[0] <= update ? m.rows_ : later).push_back(r);
   if (!later.empty()) {

@@ -115,12 +115,13 @@ void check_meta_suite(const taskpack::Suite& suite, const std::string& where) {
                           ")");
 }
 
-// Columns of metrics.csv: the run's own (steps, rates, episodes, returns; a task run has one
-// column per reward term, a suite run the return and success rate of each task and the mean of
-// the scaled returns, what the algorithm optimises), the algorithm's metrics, then faults.
+// Columns of metrics.csv: the run's own (steps, rates, the physics' load per slot-step, episodes,
+// returns; a task run has one column per reward term, a suite run the return and success rate of
+// each task and the mean of the scaled returns, what the algorithm optimises), the algorithm's
+// metrics, then faults.
 std::vector<std::string> metric_columns(const taskpack::Pack& pack, const Algorithm& algo) {
-  std::vector<std::string> cols = {"update", "steps", "wall_s", "fps", "sim_fps", "episodes",
-                                   "return", "length", "success"};
+  std::vector<std::string> cols = {"update", "steps", "wall_s", "fps", "sim_fps", "efc_rows",
+                                   "solver_iters", "episodes", "return", "length", "success"};
   if (pack.ngroups() == 1) {
     for (auto& t : pack.task_spec(0).reward_terms) cols.push_back("term_" + t.name);
     if (pack.curriculum(0)) cols.push_back("curriculum_level");  // the slots' mean level
@@ -487,9 +488,11 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       with += 1;
     }
     const double mean_return = with ? ret / with : NAN, mean_success = with ? succ / with : NAN;
+    const taskpack::Pack::PhysicsLoad load = env.take_load();
     std::vector<double> row = {double(s.update), double(s.steps), s.wall,
-                               batch / iter, batch / std::max(sim_s, 1e-9), ep,
-                               mean_return, with ? len / with : NAN, mean_success};
+                               batch / iter, batch / std::max(sim_s, 1e-9), load.rows,
+                               load.iterations, ep, mean_return, with ? len / with : NAN,
+                               mean_success};
     if (env.ngroups() == 1) {
       for (double t : per[0].term_sums) row.push_back(ep > 0 ? t / ep : NAN);
       if (env.curriculum(0))

@@ -71,6 +71,8 @@ SimBatch::SimBatch(const SimModel& model, int nslot, BatchOptions options)
   time.assign(nslot, 0.0);
   fault.assign(nslot, 0);
   fault_count.assign(nslot, 0);
+  efc_rows.assign(nslot, 0);
+  solver_iters.assign(nslot, 0);
   episode.assign(nslot, -1);
   warnings_seen_.assign(nslot, 0);
   rng_.resize(nslot);
@@ -221,6 +223,11 @@ void step_slot(const SimModel& model, SimBatch& b, int s) {
         mj_step2(m, d);
         mj_step1(m, d);
       }
+      b.efc_rows[s] += d->nefc;
+      int iters = d->solver_niter[0];
+      for (int i = 1; i < std::min(d->nisland, mjNISLAND); ++i)
+        iters = std::max(iters, d->solver_niter[i]);
+      b.solver_iters[s] += iters;
     } catch (const MujocoError&) {
       f |= kFaultMujocoError;
     }

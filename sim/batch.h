@@ -98,6 +98,11 @@ class SimBatch {
   std::vector<double> time;           // (nslot) simulated seconds since the slot's last reset
   std::vector<uint32_t> fault;        // (nslot) FaultBits of the last step, 0 if none
   std::vector<int64_t> fault_count;   // (nslot) faults since construction
+  // (nslot) the physics' load, summed over the slot's control steps since construction: the
+  // constraint rows at each step's end (mjData::nefc) and the solver's iterations in its last
+  // substep (the most of any island); the GPU backend keeps the same sums (sim/warp_bridge.py)
+  std::vector<int64_t> efc_rows;
+  std::vector<int64_t> solver_iters;
   std::vector<int64_t> episode;       // (nslot) resets so far (seeds the random stream)
 
   SlotView slot(int s);

@@ -66,12 +66,18 @@ def _check(
   fault_seen: wp.array(dtype=wp.uint32),
   overflow_count: wp.array(dtype=wp.int64),
   rows_max: wp.array(dtype=wp.int32),
+  solver_niter: wp.array(dtype=int),
+  efc_rows: wp.array(dtype=wp.int64),
+  solver_iters: wp.array(dtype=wp.int64),
   reset: wp.array(dtype=wp.int32),
 ):
   w = wp.tid()
   bits = wp.uint32(0)
   # the most constraint rows this world has needed (its room's use; an overflow counts above)
   rows_max[w] = wp.max(rows_max[w], wp.int32(nefc[w]))
+  # the physics' load, summed over control steps as sim/batch.cc sums it on the CPU
+  efc_rows[w] = efc_rows[w] + wp.int64(nefc[w])
+  solver_iters[w] = solver_iters[w] + wp.int64(solver_niter[w])
   # inputs: MuJoCo Warp clamps a NaN target into the control range, so check them here
   for i in range(ctrl.shape[1]):
     if not wp.isfinite(ctrl[w, i]):
@@ -319,6 +325,8 @@ class Bridge:
       self.fault_seen = wp.zeros(nworld, dtype=wp.uint32)  # every kind a world has met
       self.overflow_count = wp.zeros(nworld, dtype=wp.int64)
       self.rows_max = wp.zeros(nworld, dtype=wp.int32)
+      self.efc_rows = wp.zeros(nworld, dtype=wp.int64)
+      self.solver_iters = wp.zeros(nworld, dtype=wp.int64)
       self.reset_mask = wp.zeros(nworld, dtype=wp.int32)
       qposadr = np.full(mjm.nu, -1, dtype=np.int32)
       for a in range(mjm.nu):
@@ -363,7 +371,7 @@ class Bridge:
     wp.launch(_check, dim=self.nworld,
               inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
                       d.nefc, self.fault, self.fault_count, self.fault_seen, self.overflow_count,
-                      self.rows_max,
+                      self.rows_max, d.solver_niter, self.efc_rows, self.solver_iters,
                       self.reset_mask])
 
   def _step_without_sensors(self):
@@ -521,7 +529,8 @@ class Bridge:
       "mocap_quat": d.mocap_quat, "xfrc_applied": d.xfrc_applied, "time": d.time,
       "base_wrench": self.base_wrench, "fault": self.fault, "fault_count": self.fault_count,
       "fault_seen": self.fault_seen,
-      "overflow_count": self.overflow_count, "rows_max": self.rows_max, "reset": self.reset_mask,
+      "overflow_count": self.overflow_count, "rows_max": self.rows_max, "efc_rows": self.efc_rows,
+      "solver_iters": self.solver_iters, "reset": self.reset_mask,
     }
     out = {}
     for k, a in named.items():

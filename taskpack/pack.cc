@@ -140,6 +140,19 @@ Pack::Pack(const PackSpec& spec) : spec_(spec) {
 
 Pack::~Pack() = default;
 
+Pack::PhysicsLoad Pack::take_load() {
+  const LoadSums now = load_sums();
+  PhysicsLoad load;
+  const int64_t n = now.slot_steps - load_taken_.slot_steps;
+  if (n > 0) {
+    load.rows = static_cast<double>(now.rows - load_taken_.rows) / static_cast<double>(n);
+    load.iterations =
+        static_cast<double>(now.iterations - load_taken_.iterations) / static_cast<double>(n);
+  }
+  load_taken_ = now;
+  return load;
+}
+
 int Pack::group_of(int slot) const { return slot_group_.at(static_cast<size_t>(slot)); }
 
 int Pack::one_hot_offset() const {
@@ -263,10 +276,22 @@ void TaskPack::step(const float* actions) {
     write_row(g, local, s);
   }
   for (auto& e : envs_) e->end_step();
+  ++steps_;
   if (profile_on_) {
     wall_.steps += 1;
     wall_.wall += now() - w0;
   }
+}
+
+Pack::LoadSums TaskPack::load_sums() const {
+  LoadSums sums;
+  for (const auto& e : envs_) {
+    const sim::SimBatch& b = e->batch();
+    for (int64_t r : b.efc_rows) sums.rows += r;
+    for (int64_t i : b.solver_iters) sums.iterations += i;
+  }
+  sums.slot_steps = steps_ * nslot_;
+  return sums;
 }
 
 std::vector<tasks::EpisodeStats> TaskPack::take_stats() {

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <array>
 #include <string>
@@ -106,6 +107,16 @@ class Pack {
   virtual void set_goal_shifts(int g, const std::vector<int>& local,
                                const std::vector<double>& shifts) = 0;
 
+  // The physics' load per slot and control step since the last call (the first: since the pack
+  // was built): the mean constraint rows at a step's end and the mean solver iterations of its
+  // last substep, on either device (sim::SimBatch::efc_rows); NaN without a step since. A
+  // simulation that slows as training goes on shows here whether its contacts grew.
+  struct PhysicsLoad {
+    double rows = std::numeric_limits<double>::quiet_NaN();
+    double iterations = std::numeric_limits<double>::quiet_NaN();
+  };
+  PhysicsLoad take_load();
+
   // Gives every entry with goals its slots' shifts in turn (PackEntry::goals), from their next
   // reset; the packs call it once they are built.
   void assign_goals();
@@ -116,12 +127,21 @@ class Pack {
 
  protected:
   explicit Pack(const PackSpec& spec);
+  // Sums since construction over every slot's control steps: constraint rows, solver
+  // iterations and the slot-steps they cover.
+  struct LoadSums {
+    int64_t rows = 0, iterations = 0, slot_steps = 0;
+  };
+  virtual LoadSums load_sums() const = 0;
   PackSpec spec_;
   std::vector<const tasks::TaskSpec*> specs_;
   std::vector<int> begin_;
   std::vector<std::vector<uint8_t>> keep_;
   std::vector<int> slot_group_;  // entry of each pack slot
   int nslot_ = 0, obs_dim_ = 0, act_dim_ = 0, obs_pad_ = 0, one_hot_ = 0;
+
+ private:
+  LoadSums load_taken_;  // load_sums() at the last take_load
 };
 
 // The pack on the CPU: one TaskEnv per entry, every slot of every entry stepped in one parallel
@@ -168,7 +188,10 @@ class TaskPack : public Pack {
  private:
   void write_row(int g, int local, int slot);  // pack rows of one slot from its entry's env
 
+  LoadSums load_sums() const override;
+
   std::vector<std::unique_ptr<tasks::TaskEnv>> envs_;
+  int64_t steps_ = 0;  // control steps since construction
   bool profile_on_ = false;
   tasks::StageProfile wall_;     // steps and wall time of the pack's steps
 };

@@ -174,6 +174,7 @@ void WarpPack::step() {
   // each backend's step (its entries' stages and one physics pass) queued on its stream: the
   // backends overlap
   for (const auto& entries : backends_) envs_[entries.front()]->step();
+  ++steps_;
   launch_seconds_ += monotonic_seconds() - t0;
   write_rows();
 }
@@ -216,6 +217,17 @@ std::string WarpPack::room_advice() const {
     out.append(out.empty() ? "" : "\n").append(labels).append(": ").append(a);
   }
   return out;
+}
+
+Pack::LoadSums WarpPack::load_sums() const {
+  LoadSums sums;
+  for (const auto& entries : backends_) {
+    const sim::WarpBackend& b = envs_[entries.front()]->backend();
+    for (int64_t r : b.download_as<int64_t>("efc_rows")) sums.rows += r;
+    for (int64_t i : b.download_as<int64_t>("solver_iters")) sums.iterations += i;
+  }
+  sums.slot_steps = steps_ * nslot_;
+  return sums;
 }
 
 std::vector<WarpPack::Rows> WarpPack::rows() const {

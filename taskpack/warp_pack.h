@@ -100,6 +100,7 @@ class WarpPack : public Pack {
   void write_reset_rows();  // the same after a reset: no reward, no episode ended
   void reset_backend(size_t k, const uint8_t* mask);  // backend k's entries, mask or all
   void synchronize_backends();
+  LoadSums load_sums() const override;  // copies two arrays of each backend
 
   WarpPackOptions options_;
   std::vector<std::unique_ptr<tasks::WarpTaskEnv>> envs_;
@@ -107,6 +108,7 @@ class WarpPack : public Pack {
   std::vector<EntryRows> rows_;
   uintptr_t actions_ = 0, obs_ = 0, final_obs_ = 0, reward_ = 0, done_ = 0, bootstrap_ = 0;
   double launch_seconds_ = 0;
+  int64_t steps_ = 0;  // control steps since construction
 };
 
 // The device a pack of `spec` steps on: "cpu" or "cuda" as asked, or for "auto" cuda when this

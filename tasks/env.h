@@ -87,6 +87,7 @@ class TaskEnv {
   const Task& task() const { return *task_; }
   const sim::SimModel& model() const { return *model_; }
   sim::SimBatch& batch() { return *batch_; }
+  const sim::SimBatch& batch() const { return *batch_; }
   const SlotState& slot_state(int s) const { return state_[s]; }
   // A slot as the task's stage functions see it (tests craft states through it: edit
   // slot.data / slot.task, then sim::sync_slot).

@@ -128,21 +128,51 @@ TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken 
   CHECK(r1.interrupted);
   CHECK(r1.updates == 2);
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == 2);
-  // a row written after the checkpoint (as if the process died before the next one) is kept aside
+  // the physics' load of every update: constraint rows and solver iterations per slot-step
+  for (const char* col : {"efc_rows", "solver_iters"})
+    for (double v : metric(dir, col)) CHECK((std::isfinite(v) && v > 0));
+  // the log as a bidex before those two columns wrote it, with a row written after the
+  // checkpoint (as if the process died before the next one), which is kept aside
+  std::vector<std::string> cols;
+  std::vector<std::vector<double>> rows;
+  rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
+  auto old_log = [&](const std::vector<std::string>& drop) {
+    std::string text;
+    for (size_t c = 0; c < cols.size(); ++c)
+      if (std::find(drop.begin(), drop.end(), cols[c]) == drop.end())
+        text += (text.empty() ? "" : ",") + cols[c];
+    text += "\n";
+    rows.push_back(rows.back());
+    rows.back()[0] = 3;
+    for (const auto& r : rows) {
+      std::string line;
+      for (size_t c = 0; c < cols.size(); ++c)
+        if (std::find(drop.begin(), drop.end(), cols[c]) == drop.end())
+          line += (line.empty() ? "" : ",") + std::to_string(r[c]);
+      text += line + "\n";
+    }
+    rows.pop_back();
+    return text;
+  };
+  // a column this run does not write: not this run's log, named
   {
-    std::FILE* f = std::fopen((dir + "/metrics.csv").c_str(), "a");
-    REQUIRE(f);
-    std::string row = "3,96";
-    for (int i = 2; i < 21; ++i) row += ",0";
-    std::fputs((row + "\n").c_str(), f);
-    std::fclose(f);
+    std::string text = old_log({});
+    text.replace(text.find("sim_fps"), 7, "gpu_fps");
+    write_file_atomic(dir + "/metrics.csv", text);
+    CHECK(error_of([&] { rl::train_resume(dir, test::quiet()); })
+              .find(dir + "/metrics.csv: its columns") != std::string::npos);
   }
+  write_file_atomic(dir + "/metrics.csv", old_log({"efc_rows", "solver_iters"}));
   auto r2 = rl::train_resume(dir, test::quiet());
   CHECK_FALSE(r2.interrupted);
   CHECK(r2.updates == 4);
   CHECK(r2.steps == 128);
   CHECK(metric(dir, "update") == std::vector<double>{1, 2, 3, 4});
   CHECK(test::file_exists(dir + "/metrics.after_update_2.csv"));
+  // the old rows have the new columns empty, the resumed session's are filled
+  const std::vector<double> efc = metric(dir, "efc_rows");
+  CHECK((std::isnan(efc[0]) && std::isnan(efc[1]) && efc[2] > 0 && efc[3] > 0));
+  CHECK(metric(dir, "sim_fps")[1] == Approx(rows[1][4]));
   CHECK(rl::read_checkpoint_meta(rl::list_checkpoints(dir).back()).update == 4);
   // a finished run resumes to nothing new
   auto r3 = rl::train_resume(dir, test::quiet());

@@ -526,3 +526,41 @@ TEST_CASE("invalid pack entries are ConfigErrors naming the entry", "[taskpack]"
   auto p = make_pack(ok, 1, 1);
   CHECK_THROWS_AS(p->step(std::vector<float>(3)), Error);
 }
+
+// The physics' load that training logs (metrics.csv: efc_rows, solver_iters): per slot and
+// control step, the constraint rows at the step's end and the solver's iterations, as MuJoCo's
+// own data of each slot holds them after the step, over every entry.
+TEST_CASE("a pack's physics load is the mean of its slots' constraint rows and solver iterations",
+          "[taskpack]") {
+  PackSpec spec;
+  spec.name = "two";
+  spec.entries = {entry("catch_underarm", 3), entry("push_block", 2)};
+  auto pack = make_pack(spec, 11);
+  const auto before = pack->take_load();  // nothing stepped since the pack was built
+  CHECK((std::isnan(before.rows) && std::isnan(before.iterations)));
+  std::vector<float> a(static_cast<size_t>(pack->nslot()) * pack->act_dim(), 0.0f);
+  double rows = 0, iters = 0;
+  const int steps = 6;
+  for (int i = 0; i < steps; ++i) {
+    pack->step(a);
+    for (int g = 0; g < pack->ngroups(); ++g)
+      for (int s = 0; s < pack->group_slots(g); ++s) {
+        // no episode ended, so each slot's data is still the step's
+        REQUIRE(!pack->terminated[pack->group_begin(g) + s]);
+        const mjData* d = pack->group(g).batch().data(s);
+        rows += d->nefc;
+        int n = d->solver_niter[0];
+        for (int k = 1; k < std::min(d->nisland, mjNISLAND); ++k) n = std::max(n, d->solver_niter[k]);
+        iters += n;
+      }
+  }
+  const auto load = pack->take_load();
+  CHECK(load.rows == Approx(rows / (steps * pack->nslot())));
+  CHECK(load.iterations == Approx(iters / (steps * pack->nslot())));
+  CHECK(load.rows > 10);  // hands on the table and an object in a palm make contacts
+  CHECK(load.iterations >= 1);
+  const auto again = pack->take_load();  // no step since the last call
+  CHECK((std::isnan(again.rows) && std::isnan(again.iterations)));
+  pack->step(a);
+  CHECK(std::isfinite(pack->take_load().rows));
+}

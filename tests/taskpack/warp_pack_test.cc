@@ -11,6 +11,7 @@
 
 #include "core/error.h"
 #include "rl/collector.h"
+#include "rl/metrics.h"
 #include "sim/cuda_driver.h"
 #include "taskpack/warp_pack.h"
 #include "tests/fixture.h"
@@ -109,10 +110,23 @@ TEST_CASE("a GPU pack writes the CPU pack's padded, one-hot, scaled rows", "[war
   // each entry read its own columns of the padded action rows: nothing faulted
   CHECK(gpu.total_faults() == 0);
   CHECK(gpu.room_advice().empty());
+  int most = 0;
   for (const auto& rows : gpu.rows()) {
     CHECK(rows.needed > 0);
     CHECK(rows.needed <= rows.room);
+    most = std::max(most, rows.needed);
   }
+  // the physics' load per slot-step on both paths (training logs it): constraint rows within
+  // the most any world needed, and solver iterations; near each other (the contacts of float32
+  // MuJoCo Warp and double MuJoCo differ a little), never the same figure by accident of a
+  // shared counter
+  const auto gl = gpu.take_load(), cl = cpu.take_load();
+  INFO("rows " << gl.rows << " and " << cl.rows << ", iterations " << gl.iterations << " and "
+               << cl.iterations);
+  CHECK((gl.rows > 0 && gl.rows <= most));
+  CHECK(gl.rows == Approx(cl.rows).epsilon(0.2));
+  CHECK(gl.iterations >= 1);
+  CHECK(std::isnan(gpu.take_load().rows));  // no step since
 }
 
 TEST_CASE("the collector reads a GPU pack's rows in place, with the time limit's final rows",
@@ -184,6 +198,17 @@ TEST_CASE("training runs on the GPU path's code, records its device and resumes 
   CHECK(summary["gpu_rows"][0]["rows_needed"].get<int>() <= summary["gpu_rows"][0]["njmax"].get<int>());
   const auto run = nlohmann::json::parse(read_file(dir + "/run.json"));
   CHECK(run["sessions"][0]["sim_device"] == "warp-cpu");
+  // every update logs the physics' load per slot-step, from the backend's sums
+  {
+    std::vector<std::string> cols;
+    std::vector<std::vector<double>> rows;
+    rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
+    for (const char* name : {"efc_rows", "solver_iters"}) {
+      const auto c = std::find(cols.begin(), cols.end(), name) - cols.begin();
+      REQUIRE(c < static_cast<long>(cols.size()));
+      for (const auto& row : rows) CHECK((std::isfinite(row[c]) && row[c] > 0));
+    }
+  }
   const auto prof = nlohmann::json::parse(read_file(dir + "/profile.json"));
   CHECK(prof["slot_steps"] == 64);
   for (const char* k : {"simulation", "physics", "task_kernels", "policy", "update"})
