@@ -106,6 +106,17 @@ def rising(rows):
         or (slast is not None and sprev is not None and slast - sprev > 0.02)
 
 
+def first_last(updates, key, n=10, skip=5):
+    """The mean of a metrics column over the n updates after the first `skip` (kernels compile
+    and the first episodes end there) and over the last n: how a rate or the physics' load
+    moved over the run; None where the column is missing (a log from before it)."""
+    vals = [num(r, key) for r in updates]
+    head = [v for v in vals[skip:skip + n] if v is not None]
+    tail = [v for v in vals[-n:] if v is not None]
+    return {"first": sum(head) / len(head) if head else None,
+            "last": sum(tail) / len(tail) if tail else None}
+
+
 def eval_row(ev):
     """the fields of a `bidex eval --json` file the table shows, or None"""
     return None if ev is None else {
@@ -160,6 +171,9 @@ def summarise(outdir, spec):
         "eval_default_yaml": eval_row(ev_default),
         "eval_under": ev_named,
         "gpu_rows": summary.get("gpu_rows") if summary else None,
+        # the simulation's rate and its load (constraint rows and solver iterations per
+        # slot-step) early and late in the run: whether a falling sim_fps came with more contacts
+        "physics_load": {k: first_last(updates, k) for k in ("sim_fps", "efc_rows", "solver_iters")},
     }
     write_json(f"{d}/time_to_target.json",
                {k: t[k] for k in ("task", "seed", "original_ppo_final", "reached_original",

@@ -2,7 +2,8 @@
 # - wait, which a waiting call runs: it returns as soon as the last lane ends, not at its next
 #   minute, and at its time limit when lanes still run, saying how many are done;
 # - the commit in collect's sweep.json: the BIDEX_COMMIT that start was given, when collect runs
-#   in a later call without it, and collect's own when it has one.
+#   in a later call without it, and collect's own when it has one;
+# - the physics' load in collect's sweep.json: sim_fps, efc_rows and solver_iters early and late.
 # Run by ctest (tests/CMakeLists.txt):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -P sweep_run_test.cmake
 file(REMOVE_RECURSE "${WORK}")
@@ -84,5 +85,28 @@ function(collected_commit name expected)
     message(SEND_ERROR "${name}: sweep.json names commit '${commit}', expected '${expected}'")
   endif()
 endfunction()
+# a run's metrics: 30 updates whose simulation slows as its constraint rows grow; collect keeps
+# the mean of updates 6-15 and of the last 10 (sim_fps, efc_rows, solver_iters)
+set(csv "update,steps,wall_s,fps,sim_fps,efc_rows,solver_iters,episodes,return,length,success\n")
+foreach(u RANGE 1 30)
+  math(EXPR fps "300000 - ${u} * 1000")
+  math(EXPR rows "100 + ${u}")
+  math(EXPR steps "${u} * 131072")
+  string(APPEND csv "${u},${steps},${u},100000,${fps},${rows},2,10,1.5,75,0.5\n")
+endforeach()
+file(WRITE "${WORK}/runs/hand_over/metrics.csv" "${csv}")
+set(load_of_hand_over "")
+function(expect_load key first last)
+  string(JSON f GET "${load_of_hand_over}" ${key} first)
+  string(JSON l GET "${load_of_hand_over}" ${key} last)
+  if(NOT f STREQUAL first OR NOT l STREQUAL last)
+    message(SEND_ERROR "sweep.json's physics_load.${key}: first ${f} and last ${l}, expected ${first} and ${last}")
+  endif()
+endfunction()
 collected_commit(collect_later abc1234 ${CMAKE_COMMAND} -E env --unset=BIDEX_COMMIT)
+file(READ "${WORK}/c/sweep.json" json)
+string(JSON load_of_hand_over GET "${json}" runs 0 physics_load)
+expect_load(sim_fps 289500.0 274500.0)   # updates 6-15: 294000..285000; 21-30: 279000..270000
+expect_load(efc_rows 110.5 125.5)
+expect_load(solver_iters 2.0 2.0)
 collected_commit(collect_own def5678 ${CMAKE_COMMAND} -E env BIDEX_COMMIT=def5678)
