@@ -137,19 +137,18 @@ TEST_CASE("a stopped run resumes from its checkpoint and ends where an unbroken 
   std::vector<std::vector<double>> rows;
   rl::parse_metrics_csv(read_file(dir + "/metrics.csv"), dir, cols, rows);
   auto old_log = [&](const std::vector<std::string>& drop) {
+    auto kept = [&](size_t c) { return std::find(drop.begin(), drop.end(), cols[c]) == drop.end(); };
     std::string text;
     for (size_t c = 0; c < cols.size(); ++c)
-      if (std::find(drop.begin(), drop.end(), cols[c]) == drop.end())
-        text += (text.empty() ? "" : ",") + cols[c];
-    text += "\n";
+      if (kept(c)) text.append(text.empty() ? "" : ",").append(cols[c]);
+    text += '\n';
     rows.push_back(rows.back());
     rows.back()[0] = 3;
     for (const auto& r : rows) {
       std::string line;
       for (size_t c = 0; c < cols.size(); ++c)
-        if (std::find(drop.begin(), drop.end(), cols[c]) == drop.end())
-          line += (line.empty() ? "" : ",") + std::to_string(r[c]);
-      text += line + "\n";
+        if (kept(c)) line.append(line.empty() ? "" : ",").append(std::to_string(r[c]));
+      text.append(line).append("\n");
     }
     rows.pop_back();
     return text;
