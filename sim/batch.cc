@@ -199,6 +199,13 @@ void sync_slot(const SimModel& model, SimBatch& b, int s) {
   write_outputs(d, b, s);
 }
 
+int solver_iterations(const mjData* d) {
+  int iters = d->solver_niter[0];
+  for (int i = 1; i < std::min(d->nisland, mjNISLAND); ++i)
+    iters = std::max(iters, d->solver_niter[i]);
+  return iters;
+}
+
 void step_slot(const SimModel& model, SimBatch& b, int s) {
   const mjModel* m = model.mj();
   const int substeps = model.physics().substeps;
@@ -224,10 +231,7 @@ void step_slot(const SimModel& model, SimBatch& b, int s) {
         mj_step1(m, d);
       }
       b.efc_rows[s] += d->nefc;
-      int iters = d->solver_niter[0];
-      for (int i = 1; i < std::min(d->nisland, mjNISLAND); ++i)
-        iters = std::max(iters, d->solver_niter[i]);
-      b.solver_iters[s] += iters;
+      b.solver_iters[s] += solver_iterations(d);
     } catch (const MujocoError&) {
       f |= kFaultMujocoError;
     }

@@ -147,6 +147,10 @@ void step(const SimModel& model, SimBatch& batch,
 // may be stepped concurrently and in any order; never throws for bad state.
 void step_slot(const SimModel& model, SimBatch& batch, int slot);
 
+// The solver's iterations in a slot's last physics step: the most of any constraint island
+// (what SimBatch::solver_iters sums).
+int solver_iterations(const mjData* d);
+
 // Puts one slot back to the scene's initial state (hands at their placements, joints at 0 inside
 // their ranges, targets at the current joints, zero velocity), advances its episode counter,
 // rekeys its random stream and writes its output rows.

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/yaml.h"
 #include "metarl/algorithms.h"
 #include "sim/physics.h"
 
@@ -256,17 +257,16 @@ TEST_CASE("every sweep task YAML builds its task and every sweep overrides file 
     INFO(file);
     // the task: an extends chain that ends at ../../tasks/<id>/<id>.yaml names it; one that ends
     // at a whole YAML in bench/sweep (a copy of a task's) must build some task
-    std::string text = read_file(file), id;
+    std::string at = file, id;
+    const std::string tasks_dir = BIDEX_SOURCE_DIR "/bench/sweep/../../tasks/";
     for (int depth = 0; id.empty() && depth < 4; ++depth) {
-      const auto at = text.find("\nextends: ");
-      if (at == std::string::npos) break;
-      const auto begin = at + std::string("\nextends: ").size();
-      const std::string parent = text.substr(begin, text.find('\n', begin) - begin);
-      const std::string prefix = "../../tasks/";
-      if (parent.rfind(prefix, 0) == 0)
-        id = parent.substr(prefix.size(), parent.find('/', prefix.size()) - prefix.size());
-      else
-        text = read_file(BIDEX_SOURCE_DIR "/bench/sweep/" + parent);
+      const std::string text = read_file(at);
+      const auto line = text.find("\nextends: ");
+      if (line == std::string::npos) break;
+      const auto begin = line + std::string("\nextends: ").size();
+      at = path_beside(at, text.substr(begin, text.find('\n', begin) - begin));  // as core/yaml
+      if (at.rfind(tasks_dir, 0) == 0)
+        id = at.substr(tasks_dir.size(), at.find('/', tasks_dir.size()) - tasks_dir.size());
     }
     if (!id.empty()) {
       CHECK_NOTHROW(tasks::make_task(id, file));

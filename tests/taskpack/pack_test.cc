@@ -549,9 +549,7 @@ TEST_CASE("a pack's physics load is the mean of its slots' constraint rows and s
         REQUIRE(!pack->terminated[pack->group_begin(g) + s]);
         const mjData* d = pack->group(g).batch().data(s);
         rows += d->nefc;
-        int n = d->solver_niter[0];
-        for (int k = 1; k < std::min(d->nisland, mjNISLAND); ++k) n = std::max(n, d->solver_niter[k]);
-        iters += n;
+        iters += sim::solver_iterations(d);
       }
   }
   const auto load = pack->take_load();

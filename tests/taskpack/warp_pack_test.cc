@@ -117,9 +117,8 @@ TEST_CASE("a GPU pack writes the CPU pack's padded, one-hot, scaled rows", "[war
     most = std::max(most, rows.needed);
   }
   // the physics' load per slot-step on both paths (training logs it): constraint rows within
-  // the most any world needed, and solver iterations; near each other (the contacts of float32
-  // MuJoCo Warp and double MuJoCo differ a little), never the same figure by accident of a
-  // shared counter
+  // the most any world needed, and solver iterations; the rows near the CPU pack's (the contacts
+  // of float32 MuJoCo Warp and double MuJoCo differ a little)
   const auto gl = gpu.take_load(), cl = cpu.take_load();
   INFO("rows " << gl.rows << " and " << cl.rows << ", iterations " << gl.iterations << " and "
                << cl.iterations);
