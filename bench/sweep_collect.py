@@ -129,7 +129,7 @@ def summarise(outdir, spec):
     task, *parts = spec.split("/")
     seed = next((p[1:] for p in parts if p.startswith("s")), "0")
     config = next((p[1:] for p in parts if p.startswith("c")), None)
-    overrides = next((p[1:] for p in parts if p.startswith("o")), None)
+    overrides = [p[1:] for p in parts if p.startswith("o")]  # every part oNAME, in order
     name = spec.replace("/", "-")
     d = os.path.join(outdir, name)
     updates = updates_of(f"{d}/metrics.csv")
@@ -152,7 +152,7 @@ def summarise(outdir, spec):
     t = {
         "task": task, "seed": int(seed), "run": name,
         "task_config": None if config is None else f"bench/sweep/{config}.yaml",
-        "overrides": None if overrides is None else f"bench/sweep/{overrides}.overrides",
+        "overrides": [f"bench/sweep/{o}.overrides" for o in overrides] or None,
         "commands": commands,
         "slot_steps": int(float(trained["steps"])) if trained else 0,
         "wall_s": float(trained["wall_s"]) if trained else 0.0,

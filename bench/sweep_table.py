@@ -47,7 +47,10 @@ def slots(t):
 def label(t):
     """the task, the task YAML and training overrides of bench/sweep/ that the run used, and its
     slots where they are its own (the task's section of configs/train/ppo.yaml)"""
-    files = [t.get(k) for k in ("task_config", "overrides") if t.get(k)]
+    overrides = t.get("overrides") or []
+    # a list of every overrides file; a string in sweep.json files collected before it was one
+    files = [t["task_config"]] if t.get("task_config") else []
+    files += [overrides] if isinstance(overrides, str) else overrides
     names = [os.path.splitext(os.path.basename(f))[0] for f in files]
     if not t.get("overrides") and slots(t) != SWEEP_SLOTS:
         names.append(f"{slots(t):,} slots")
