@@ -7,6 +7,10 @@
 #include "taskpack/pack.h"
 #include "taskpack/warp_pack.h"
 
+#ifdef BIDEX_TORCH_CUDA
+#include <c10/cuda/CUDAStream.h>
+#endif
+
 namespace bidex::rl {
 
 double Collector::take_sim_seconds() {
@@ -148,8 +152,14 @@ class DeviceCollector : public Collector {
   }
 
  private:
+  // The learner's current stream only, not the whole device: PPO with ppo.overlap runs its
+  // update on a stream of its own beside the rollout (rl/ppo.cc).
   void wait_for_learner() {
+#ifdef BIDEX_TORCH_CUDA
+    if (device_.is_cuda()) c10::cuda::getCurrentCUDAStream(device_.index()).synchronize();
+#else
     if (device_.is_cuda()) torch::cuda::synchronize(device_.index());
+#endif
   }
 
   taskpack::WarpPack& env_;

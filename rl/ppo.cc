@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <optional>
+#include <stdexcept>
 #include <string>
 
 #include "rl/autocast.h"
@@ -186,6 +188,11 @@ void Ppo::epochs(const Rows& rows, int64_t B, [[maybe_unused]] const torch::Tens
 }
 
 UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
+  launch(r, last_value);
+  return read_stats();
+}
+
+void Ppo::launch(const Rollout& r, const torch::Tensor& last_value) {
   timer_.start();
   auto [adv, ret] = gae(r.rewards, r.values, r.dones, last_value, c_.gamma, c_.lambda);
   timer_.mark("gae");
@@ -222,6 +229,9 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   }
 #endif
   if (eager) epochs(rows, B, nullptr);
+}
+
+UpdateStats Ppo::read_stats() {
   const int n = c_.epochs * c_.minibatches;
   const auto read =
       torch::cat({sums_ / std::max(n, 1), opt_.lr_tensor().reshape({1})}).to(torch::kCPU);
@@ -282,19 +292,104 @@ namespace bidex::rl {
 
 namespace {
 
+// Copies every parameter and buffer of `from` into `to` (the same networks), but for the
+// observation normaliser's where `with_obs_norm` is false.
+void copy_state(ActorCriticImpl& from, ActorCriticImpl& to, bool with_obs_norm) {
+  torch::NoGradGuard ng;
+  auto skip = [&](const std::string& key) { return !with_obs_norm && key.rfind("obs_norm.", 0) == 0; };
+  auto dst = to.named_parameters();
+  for (const auto& p : from.named_parameters())
+    if (!skip(p.key())) dst[p.key()].copy_(p.value());
+  auto dbuf = to.named_buffers();
+  for (const auto& b : from.named_buffers())
+    if (!skip(b.key())) dbuf[b.key()].copy_(b.value());
+}
+
+// A copy of `model` made without drawing from the global generator (a new ActorCritic draws its
+// initial weights from it), so that a run draws the same numbers with ppo.overlap as without.
+ActorCritic twin_of(ActorCritic& model, const PpoConfig& c, int64_t value_tasks) {
+  auto gen = at::detail::getDefaultCPUGenerator();
+  const auto state = gen.get_state();
+  ActorCritic twin(model->obs_dim(), model->act_dim(), c, value_tasks);
+  gen.set_state(state);
+  twin->to(model->log_std().device());
+  copy_state(*model, *twin, true);
+  return twin;
+}
+
 class PpoAlgorithm final : public GaussianOnPolicy {
  public:
   PpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
                const torch::Device& device, int64_t ntasks)
       : GaussianOnPolicy(config.ppo, D, A, N, device, config.ppo.value_norm_task ? ntasks : 0) {
-    ppo_ = std::make_unique<Ppo>(model_, c_, ntasks);
+    if (c_.overlap) {
+      // the learner's own networks and rollout: model_ acts, one update behind
+      learner_ = twin_of(model_, c_, config.ppo.value_norm_task ? ntasks : 0);
+      lro_ = std::make_unique<Rollout>(c_.horizon, N, D, A, device);
+#ifdef BIDEX_TORCH_CUDA
+      if (device.is_cuda()) side_.emplace(c10::cuda::getStreamFromPool(false, device.index()));
+#endif
+    }
+    ppo_ = std::make_unique<Ppo>(c_.overlap ? learner_ : model_, c_, ntasks);
+  }
+
+  ~PpoAlgorithm() override {
+#ifdef BIDEX_TORCH_CUDA
+    if (side_ && pending_) side_->synchronize();  // the update in flight reads our tensors
+#endif
   }
 
   std::vector<double> update(const torch::Tensor& obs) override {
     const torch::Tensor last_value = finish_rollout(obs);
-    const UpdateStats us = ppo_->update(*ro_, last_value);
-    return {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
-            action_std()};
+    if (!c_.overlap) {
+      const UpdateStats us = ppo_->update(*ro_, last_value);
+      return metrics(us, action_std());  // the std after the update
+    }
+    // the update in flight, if any, is done: the next rollout acts with its result, while the
+    // update of the rollout just collected runs beside it
+    std::vector<double> done = finish();
+    {
+      torch::NoGradGuard ng;
+      copy_state(*learner_, *model_, false);  // the acting networks take the learner's ...
+      copy_state(*model_, *learner_, true);   // ... and the learner the acting observation norm
+      for (auto [from, to] : {std::pair{&ro_->nobs, &lro_->nobs}, {&ro_->actions, &lro_->actions},
+                              {&ro_->logp, &lro_->logp},          {&ro_->mu, &lro_->mu},
+                              {&ro_->values, &lro_->values},      {&ro_->rewards, &lro_->rewards},
+                              {&ro_->dones, &lro_->dones},        {&ro_->log_std, &lro_->log_std}})
+        to->copy_(*from);
+      if (!last_value_.defined()) last_value_ = torch::empty_like(last_value);
+      last_value_.copy_(last_value);  // kept where it is: the update in flight reads it
+    }
+#ifdef BIDEX_TORCH_CUDA
+    if (side_) {
+      at::cuda::CUDAEvent copied;
+      copied.record(c10::cuda::getCurrentCUDAStream(side_->device_index()));
+      copied.block(*side_);
+      c10::cuda::CUDAStreamGuard on_side(*side_);
+      ppo_->launch(*lro_, last_value_);
+      pending_ = true;
+      return done;
+    }
+#endif
+    ppo_->launch(*lro_, last_value_);
+    pending_ = true;
+    return done;
+  }
+
+  bool overlaps_update() const override { return c_.overlap; }
+
+  std::vector<double> finish() override {
+    if (!pending_) return {};
+    pending_ = false;
+#ifdef BIDEX_TORCH_CUDA
+    if (side_) {
+      c10::cuda::CUDAStreamGuard on_side(*side_);  // read after the update, on its stream
+      const UpdateStats us = ppo_->read_stats();
+      return metrics(us, learner_std());
+    }
+#endif
+    const UpdateStats us = ppo_->read_stats();
+    return metrics(us, learner_std());
   }
 
   const std::vector<std::string>& metric_names() const override {
@@ -308,20 +403,53 @@ class PpoAlgorithm final : public GaussianOnPolicy {
     return ppo_->timer().totals();
   }
 
+  // With ppo.overlap: "model" is the learner's networks (what evaluation and a resumed run's
+  // learner load) and "acting" the acting copy, one update behind.
   void save(torch::serialize::OutputArchive& root) override {
-    write_part(root, "model", *model_);
+    if (pending_)
+      throw std::logic_error("PPO with ppo.overlap: save() with an update in flight (finish() first)");
+    write_part(root, "model", c_.overlap ? *learner_ : *model_);
     write_part(root, "optimizer", ppo_->optimizer());  // its learning rate included
+    if (c_.overlap) write_part(root, "acting", *model_);
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
-      read_module(root, "model", *model_, path, "this run's networks");
+      read_module(root, "model", c_.overlap ? *learner_ : *model_, path, "this run's networks");
       read_optimizer(root, "optimizer", ppo_->optimizer());
+      if (!c_.overlap) return;
+      torch::serialize::InputArchive acting;
+      if (root.try_read("acting", acting))
+        load_module_checked(*model_, acting, path, "this run's acting networks");
+      else  // saved without ppo.overlap: the acting networks start as the learner's
+        copy_state(*learner_, *model_, true);
     });
   }
 
+  torch::Tensor actor(const torch::Tensor& obs) override {
+    if (!c_.overlap) return GaussianOnPolicy::actor(obs);
+    torch::NoGradGuard ng;  // the newest policy, the learner's
+    return learner_->mean(learner_->normalize_obs(obs)).clamp(-1.0, 1.0);
+  }
+
  private:
+  static std::vector<double> metrics(const UpdateStats& us, double action_std) {
+    return {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
+            action_std};
+  }
+  double learner_std() const {
+    torch::NoGradGuard ng;
+    return torch::exp(learner_->log_std()).mean().item<double>();
+  }
+
   std::unique_ptr<Ppo> ppo_;
+  ActorCritic learner_{nullptr};   // ppo.overlap: the networks the updates step
+  std::unique_ptr<Rollout> lro_;   // ppo.overlap: the rollout the update in flight reads
+  torch::Tensor last_value_;
+  bool pending_ = false;           // an update started whose metrics finish() has not taken
+#ifdef BIDEX_TORCH_CUDA
+  std::optional<c10::cuda::CUDAStream> side_;  // ppo.overlap on a CUDA device: the update's stream
+#endif
 };
 
 }  // namespace

@@ -70,6 +70,11 @@ class Ppo {
 
   // Runs the epochs and minibatches over `r`, `last_value` = V(obs after the rollout).
   UpdateStats update(const Rollout& r, const torch::Tensor& last_value);
+  // update() in two halves: launch() queues the whole update on the current stream (on a CUDA
+  // device it returns before the device is done, reading nothing back); read_stats() waits for
+  // it on the current stream and reads its statistics.
+  void launch(const Rollout& r, const torch::Tensor& last_value);
+  UpdateStats read_stats();
 
   // the optimiser, which holds the adaptive learning rate
   FlatAdam& optimizer() { return opt_; }

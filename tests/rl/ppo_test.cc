@@ -679,3 +679,118 @@ TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]
   const auto obs = torch::randn({N, D});
   CHECK(torch::equal(a->actor(obs), b->actor(obs)));
 }
+
+namespace {
+// A rollout of synthetic steps drawn from `seed` (observations, rewards, ends), then the update;
+// returns the actions the algorithm sampled, and its update's metrics in `metrics`.
+torch::Tensor synthetic_rollout(rl::Algorithm& alg, uint64_t seed, int64_t N, int64_t D,
+                                std::vector<double>* metrics = nullptr) {
+  torch::manual_seed(seed);
+  std::vector<torch::Tensor> actions;
+  for (int t = 0; t < alg.steps_per_update(); ++t) {
+    actions.push_back(alg.act(torch::randn({N, D})));
+    rl::Transition tr;
+    tr.obs = torch::randn({N, D});
+    tr.reward = torch::randn({N});
+    tr.done = (torch::rand({N}) < 0.2).to(torch::kFloat32);
+    tr.final_ids = torch::empty({0}, torch::kLong);
+    tr.final_obs = torch::empty({0, D});
+    alg.observe(tr);
+  }
+  auto m = alg.update(torch::randn({N, D}));
+  if (metrics) *metrics = m;
+  return torch::stack(actions);
+}
+}  // namespace
+
+TEST_CASE("PPO with overlap acts one update behind its learner and steps the learner as the plain update does",
+          "[rl][ppo]") {
+  rl::TrainConfig tc;
+  tc.ppo.hidden = {16};
+  tc.ppo.horizon = 4;
+  tc.ppo.epochs = 2;
+  tc.ppo.minibatches = 2;
+  tc.ppo.obs_norm = false;  // the acting networks alone decide the actions
+  const int64_t N = 8, D = 3, A = 2;
+  auto make = [&](bool overlap) {
+    tc.ppo.overlap = overlap;
+    torch::manual_seed(1);
+    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
+  };
+  auto plain = make(false), lagged = make(true), once = make(false), fresh = make(false);
+  CHECK_FALSE(plain->overlaps_update());
+  CHECK(lagged->overlaps_update());
+  CHECK(plain->finish().empty());
+  // the first rollout: both act with the initial networks; the plain update gives its metrics
+  // at once, the overlapped one at finish(), the same numbers
+  std::vector<double> m_plain, m_lagged;
+  const auto a_plain = synthetic_rollout(*plain, 10, N, D, &m_plain);
+  const auto a_lagged = synthetic_rollout(*lagged, 10, N, D, &m_lagged);
+  synthetic_rollout(*once, 10, N, D);
+  CHECK(torch::equal(a_plain, a_lagged));
+  CHECK(m_lagged.empty());
+  const std::vector<double> finished = lagged->finish();
+  CHECK(finished == m_plain);
+  CHECK(lagged->finish().empty());  // taken once
+  torch::manual_seed(3);
+  const auto x = torch::randn({5, D});
+  CHECK(torch::equal(lagged->actor(x), plain->actor(x)));  // the learner: one update done
+  // the second rollout: the overlapped run acts with the networks from before the update, as a
+  // run that never updated; the plain run with the updated ones
+  const auto b_plain = synthetic_rollout(*plain, 11, N, D);
+  const auto b_lagged = synthetic_rollout(*lagged, 11, N, D, &m_lagged);
+  const auto b_fresh = synthetic_rollout(*fresh, 11, N, D);
+  CHECK(torch::equal(b_lagged, b_fresh));
+  CHECK_FALSE(torch::equal(b_lagged, b_plain));
+  CHECK(m_lagged.empty());  // finish() took the first update's metrics
+  // the third: the overlapped run acts with the networks after one update, as `once` does
+  const auto c_lagged = synthetic_rollout(*lagged, 12, N, D, &m_lagged);
+  const auto c_once = synthetic_rollout(*once, 12, N, D);
+  CHECK(torch::equal(c_lagged, c_once));
+  REQUIRE(m_lagged.size() == 7);  // the second update's, given by the third update()
+  for (double v : m_lagged) CHECK(std::isfinite(v));
+  // a checkpoint needs the update in flight finished
+  torch::serialize::OutputArchive out;
+  CHECK_THROWS_AS(lagged->save(out), std::logic_error);
+  CHECK(lagged->finish().size() == 7);
+  lagged->save(out);
+}
+
+TEST_CASE("a PPO run with overlap saved and loaded continues as the unbroken run", "[rl][ppo]") {
+  rl::TrainConfig tc;
+  tc.ppo.hidden = {16};
+  tc.ppo.horizon = 4;
+  tc.ppo.epochs = 2;
+  tc.ppo.minibatches = 2;
+  tc.ppo.overlap = true;
+  const int64_t N = 8, D = 3, A = 2;
+  auto make = [&](uint64_t seed) {
+    torch::manual_seed(seed);
+    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
+  };
+  auto a = make(1);
+  synthetic_rollout(*a, 10, N, D);
+  synthetic_rollout(*a, 11, N, D);
+  a->finish();  // as the runner does before a checkpoint
+  torch::serialize::OutputArchive out;
+  a->save(out);
+  std::ostringstream bytes;
+  out.save_to(bytes);
+  auto b = make(2);
+  {
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    b->load(in, "memory");
+  }
+  // the acting networks (one update behind) and the learner's both came back
+  for (uint64_t seed : {12, 13}) {
+    std::vector<double> ma, mb;
+    CHECK(torch::equal(synthetic_rollout(*a, seed, N, D, &ma), synthetic_rollout(*b, seed, N, D, &mb)));
+    CHECK(ma == mb);
+  }
+  CHECK(a->finish() == b->finish());
+  torch::manual_seed(14);
+  const auto obs = torch::randn({N, D});
+  CHECK(torch::equal(a->actor(obs), b->actor(obs)));
+}
