@@ -1,8 +1,8 @@
 // The building blocks of PPO against hand-worked values: GAE with episode ends, the running
 // normaliser, the Gaussian's density, entropy and KL, and PPO's update moving a policy towards
 // better actions. The update on the device (FlatAdam, the KL-adaptive rate without a read back)
-// against the update as it ran with LibTorch's Adam and the host's rule, and a PPO run saved and
-// loaded against the unbroken run.
+// against the update as it ran with LibTorch's Adam and the host's rule, a PPO run saved and
+// loaded against the unbroken run, and PPO with ppo.overlap acting one update behind.
 #include "tests/rl/mirror_fixture.h"
 
 #include <algorithm>
@@ -632,54 +632,6 @@ TEST_CASE("PPO with value_norm per task normalises each task's returns by its ow
   CHECK(torch::equal(m->value_groups(obs[0]), task));
 }
 
-TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]") {
-  rl::TrainConfig tc;
-  tc.ppo.hidden = {16};
-  tc.ppo.horizon = 4;
-  tc.ppo.epochs = 2;
-  tc.ppo.minibatches = 2;
-  const int64_t N = 8, D = 3, A = 2;
-  auto make = [&](uint64_t seed) {
-    torch::manual_seed(seed);
-    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
-  };
-  auto run_update = [&](rl::Algorithm& alg, uint64_t seed) {
-    torch::manual_seed(seed);
-    for (int t = 0; t < alg.steps_per_update(); ++t) {
-      alg.act(torch::randn({N, D}));
-      rl::Transition tr;
-      tr.obs = torch::randn({N, D});
-      tr.reward = torch::randn({N});
-      tr.done = (torch::rand({N}) < 0.2).to(torch::kFloat32);
-      tr.final_ids = torch::empty({0}, torch::kLong);
-      tr.final_obs = torch::empty({0, D});
-      alg.observe(tr);
-    }
-    return alg.update(torch::randn({N, D}));
-  };
-  auto a = make(1);
-  run_update(*a, 10);
-  run_update(*a, 11);
-  torch::serialize::OutputArchive out;
-  a->save(out);
-  std::ostringstream bytes;
-  out.save_to(bytes);
-  auto b = make(2);
-  {
-    torch::serialize::InputArchive in;
-    std::istringstream is(bytes.str());
-    in.load_from(is);
-    b->load(in, "memory");
-  }
-  for (uint64_t seed : {12, 13}) {
-    const auto ma = run_update(*a, seed), mb = run_update(*b, seed);
-    CHECK(ma == mb);
-  }
-  torch::manual_seed(14);
-  const auto obs = torch::randn({N, D});
-  CHECK(torch::equal(a->actor(obs), b->actor(obs)));
-}
-
 namespace {
 // A rollout of synthetic steps drawn from `seed` (observations, rewards, ends), then the update;
 // returns the actions the algorithm sampled, and its update's metrics in `metrics`.
@@ -702,6 +654,48 @@ torch::Tensor synthetic_rollout(rl::Algorithm& alg, uint64_t seed, int64_t N, in
   return torch::stack(actions);
 }
 }  // namespace
+
+TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]") {
+  rl::TrainConfig tc;
+  tc.ppo.hidden = {16};
+  tc.ppo.horizon = 4;
+  tc.ppo.epochs = 2;
+  tc.ppo.minibatches = 2;
+  // also with the update beside the next rollout: the acting networks, one update behind the
+  // learner's, come back too
+  tc.ppo.overlap = GENERATE(false, true);
+  const int64_t N = 8, D = 3, A = 2;
+  auto make = [&](uint64_t seed) {
+    torch::manual_seed(seed);
+    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
+  };
+  auto a = make(1);
+  synthetic_rollout(*a, 10, N, D);
+  synthetic_rollout(*a, 11, N, D);
+  a->finish();  // as the runner does before a checkpoint (nothing to do without overlap)
+  torch::serialize::OutputArchive out;
+  a->save(out);
+  std::ostringstream bytes;
+  out.save_to(bytes);
+  auto b = make(2);
+  {
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    b->load(in, "memory");
+  }
+  for (uint64_t seed : {12, 13}) {
+    std::vector<double> ma, mb;
+    CHECK(torch::equal(synthetic_rollout(*a, seed, N, D, &ma),
+                       synthetic_rollout(*b, seed, N, D, &mb)));
+    CHECK(ma == mb);
+  }
+  CHECK(a->finish() == b->finish());
+  torch::manual_seed(14);
+  const auto obs = torch::randn({N, D});
+  CHECK(torch::equal(a->actor(obs), b->actor(obs)));
+}
+
 
 TEST_CASE("PPO with overlap acts one update behind its learner and steps the learner as the plain update does",
           "[rl][ppo]") {
@@ -754,43 +748,4 @@ TEST_CASE("PPO with overlap acts one update behind its learner and steps the lea
   CHECK_THROWS_AS(lagged->save(out), std::logic_error);
   CHECK(lagged->finish().size() == 7);
   lagged->save(out);
-}
-
-TEST_CASE("a PPO run with overlap saved and loaded continues as the unbroken run", "[rl][ppo]") {
-  rl::TrainConfig tc;
-  tc.ppo.hidden = {16};
-  tc.ppo.horizon = 4;
-  tc.ppo.epochs = 2;
-  tc.ppo.minibatches = 2;
-  tc.ppo.overlap = true;
-  const int64_t N = 8, D = 3, A = 2;
-  auto make = [&](uint64_t seed) {
-    torch::manual_seed(seed);
-    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
-  };
-  auto a = make(1);
-  synthetic_rollout(*a, 10, N, D);
-  synthetic_rollout(*a, 11, N, D);
-  a->finish();  // as the runner does before a checkpoint
-  torch::serialize::OutputArchive out;
-  a->save(out);
-  std::ostringstream bytes;
-  out.save_to(bytes);
-  auto b = make(2);
-  {
-    torch::serialize::InputArchive in;
-    std::istringstream is(bytes.str());
-    in.load_from(is);
-    b->load(in, "memory");
-  }
-  // the acting networks (one update behind) and the learner's both came back
-  for (uint64_t seed : {12, 13}) {
-    std::vector<double> ma, mb;
-    CHECK(torch::equal(synthetic_rollout(*a, seed, N, D, &ma), synthetic_rollout(*b, seed, N, D, &mb)));
-    CHECK(ma == mb);
-  }
-  CHECK(a->finish() == b->finish());
-  torch::manual_seed(14);
-  const auto obs = torch::randn({N, D});
-  CHECK(torch::equal(a->actor(obs), b->actor(obs)));
 }
