@@ -292,17 +292,22 @@ namespace bidex::rl {
 
 namespace {
 
-// Copies every parameter and buffer of `from` into `to` (the same networks), but for the
-// observation normaliser's where `with_obs_norm` is false.
-void copy_state(ActorCriticImpl& from, ActorCriticImpl& to, bool with_obs_norm) {
+// Which of an actor-critic's parameters and buffers copy_state copies.
+enum class Parts { all, but_obs_norm, obs_norm };
+
+// Copies `parts` of `from` into `to` (the same networks).
+void copy_state(ActorCriticImpl& from, ActorCriticImpl& to, Parts parts) {
   torch::NoGradGuard ng;
-  auto skip = [&](const std::string& key) { return !with_obs_norm && key.rfind("obs_norm.", 0) == 0; };
+  auto wanted = [&](const std::string& key) {
+    const bool norm = key.rfind("obs_norm.", 0) == 0;
+    return parts == Parts::all || (parts == Parts::obs_norm) == norm;
+  };
   auto dst = to.named_parameters();
   for (const auto& p : from.named_parameters())
-    if (!skip(p.key())) dst[p.key()].copy_(p.value());
+    if (wanted(p.key())) dst[p.key()].copy_(p.value());
   auto dbuf = to.named_buffers();
   for (const auto& b : from.named_buffers())
-    if (!skip(b.key())) dbuf[b.key()].copy_(b.value());
+    if (wanted(b.key())) dbuf[b.key()].copy_(b.value());
 }
 
 // A copy of `model` made without drawing from the global generator (a new ActorCritic draws its
@@ -313,7 +318,7 @@ ActorCritic twin_of(ActorCritic& model, const PpoConfig& c, int64_t value_tasks)
   ActorCritic twin(model->obs_dim(), model->act_dim(), c, value_tasks);
   gen.set_state(state);
   twin->to(model->log_std().device());
-  copy_state(*model, *twin, true);
+  copy_state(*model, *twin, Parts::all);
   return twin;
 }
 
@@ -350,8 +355,9 @@ class PpoAlgorithm final : public GaussianOnPolicy {
     std::vector<double> done = finish();
     {
       torch::NoGradGuard ng;
-      copy_state(*learner_, *model_, false);  // the acting networks take the learner's ...
-      copy_state(*model_, *learner_, true);   // ... and the learner the acting observation norm
+      // the acting networks take the learner's, the learner the acting observation normaliser
+      copy_state(*learner_, *model_, Parts::but_obs_norm);
+      copy_state(*model_, *learner_, Parts::obs_norm);
       for (auto [from, to] : {std::pair{&ro_->nobs, &lro_->nobs}, {&ro_->actions, &lro_->actions},
                               {&ro_->logp, &lro_->logp},          {&ro_->mu, &lro_->mu},
                               {&ro_->values, &lro_->values},      {&ro_->rewards, &lro_->rewards},
@@ -422,8 +428,14 @@ class PpoAlgorithm final : public GaussianOnPolicy {
       if (root.try_read("acting", acting))
         load_module_checked(*model_, acting, path, "this run's acting networks");
       else  // saved without ppo.overlap: the acting networks start as the learner's
-        copy_state(*learner_, *model_, true);
+        copy_state(*learner_, *model_, Parts::all);
     });
+  }
+
+  // Evaluation: the checkpoint's "model" into both networks (actor() acts with the learner's).
+  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
+    GaussianOnPolicy::load_actor(root, path);
+    if (c_.overlap) copy_state(*model_, *learner_, Parts::all);
   }
 
   torch::Tensor actor(const torch::Tensor& obs) override {

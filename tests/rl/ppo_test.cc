@@ -11,6 +11,7 @@
 
 #include "rl/algorithm.h"
 #include "rl/autocast.h"
+#include "rl/checkpoint.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
 
@@ -675,6 +676,9 @@ TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]
   a->finish();  // as the runner does before a checkpoint (nothing to do without overlap)
   torch::serialize::OutputArchive out;
   a->save(out);
+  torch::manual_seed(15);
+  const auto probe = torch::randn({N, D});
+  const auto saved_actor = a->actor(probe);  // the run's newest policy when it saved
   std::ostringstream bytes;
   out.save_to(bytes);
   auto b = make(2);
@@ -694,6 +698,30 @@ TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]
   torch::manual_seed(14);
   const auto obs = torch::randn({N, D});
   CHECK(torch::equal(a->actor(obs), b->actor(obs)));
+  // evaluation loads the actor alone, and acts as the run's newest policy did
+  auto c = make(3);
+  {
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    c->load_actor(in, "memory");
+  }
+  CHECK(torch::equal(c->actor(probe), saved_actor));
+  if (tc.ppo.overlap) {  // the learner's observation normaliser is the acting one's
+    torch::serialize::InputArchive in, model_part, acting_part;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    in.read("model", model_part);
+    in.read("acting", acting_part);
+    rl::ActorCritic learner(D, A, tc.ppo), acting(D, A, tc.ppo);
+    rl::load_module_checked(*learner, model_part, "memory", "learner");
+    rl::load_module_checked(*acting, acting_part, "memory", "acting");
+    auto lb = learner->named_buffers(), ab = acting->named_buffers();
+    for (const char* key : {"obs_norm.mean", "obs_norm.var", "obs_norm.count"}) {
+      CHECK(torch::equal(lb[key], ab[key]));
+      CHECK_FALSE(torch::equal(lb[key], rl::ActorCritic(D, A, tc.ppo)->named_buffers()[key]));
+    }
+  }
 }
 
 
