@@ -155,10 +155,8 @@ class DeviceCollector : public Collector {
   // The learner's current stream only, not the whole device: PPO with ppo.overlap runs its
   // update on a stream of its own beside the rollout (rl/ppo.cc).
   void wait_for_learner() {
-#ifdef BIDEX_TORCH_CUDA
+#ifdef BIDEX_TORCH_CUDA  // (a build without it has no CUDA device)
     if (device_.is_cuda()) c10::cuda::getCurrentCUDAStream(device_.index()).synchronize();
-#else
-    if (device_.is_cuda()) torch::cuda::synchronize(device_.index());
 #endif
   }
 

@@ -22,6 +22,14 @@
 
 namespace bidex::rl {
 
+void Rollout::copy_from(const Rollout& o) {
+  torch::NoGradGuard ng;
+  for (auto [to, from] : {std::pair{&nobs, &o.nobs}, {&actions, &o.actions}, {&logp, &o.logp},
+                          {&mu, &o.mu}, {&values, &o.values}, {&rewards, &o.rewards},
+                          {&dones, &o.dones}, {&log_std, &o.log_std}})
+    to->copy_(*from);
+}
+
 Rollout::Rollout(int64_t T, int64_t N, int64_t D, int64_t A, const torch::Device& device)
     : horizon(T), nslot(N) {
   auto f = torch::TensorOptions().dtype(torch::kFloat32).device(device);
@@ -358,26 +366,22 @@ class PpoAlgorithm final : public GaussianOnPolicy {
       // the acting networks take the learner's, the learner the acting observation normaliser
       copy_state(*learner_, *model_, Parts::but_obs_norm);
       copy_state(*model_, *learner_, Parts::obs_norm);
-      for (auto [from, to] : {std::pair{&ro_->nobs, &lro_->nobs}, {&ro_->actions, &lro_->actions},
-                              {&ro_->logp, &lro_->logp},          {&ro_->mu, &lro_->mu},
-                              {&ro_->values, &lro_->values},      {&ro_->rewards, &lro_->rewards},
-                              {&ro_->dones, &lro_->dones},        {&ro_->log_std, &lro_->log_std}})
-        to->copy_(*from);
+      lro_->copy_from(*ro_);
       if (!last_value_.defined()) last_value_ = torch::empty_like(last_value);
       last_value_.copy_(last_value);  // kept where it is: the update in flight reads it
     }
+    {
 #ifdef BIDEX_TORCH_CUDA
-    if (side_) {
-      at::cuda::CUDAEvent copied;
-      copied.record(c10::cuda::getCurrentCUDAStream(side_->device_index()));
-      copied.block(*side_);
-      c10::cuda::CUDAStreamGuard on_side(*side_);
-      ppo_->launch(*lro_, last_value_);
-      pending_ = true;
-      return done;
-    }
+      std::optional<c10::cuda::CUDAStreamGuard> on_side;
+      if (side_) {  // on the update's stream, after the copies above
+        at::cuda::CUDAEvent copied;
+        copied.record(c10::cuda::getCurrentCUDAStream(side_->device_index()));
+        copied.block(*side_);
+        on_side.emplace(*side_);
+      }
 #endif
-    ppo_->launch(*lro_, last_value_);
+      ppo_->launch(*lro_, last_value_);
+    }
     pending_ = true;
     return done;
   }
@@ -387,14 +391,13 @@ class PpoAlgorithm final : public GaussianOnPolicy {
   std::vector<double> finish() override {
     if (!pending_) return {};
     pending_ = false;
+    const UpdateStats us = [&] {
 #ifdef BIDEX_TORCH_CUDA
-    if (side_) {
-      c10::cuda::CUDAStreamGuard on_side(*side_);  // read after the update, on its stream
-      const UpdateStats us = ppo_->read_stats();
-      return metrics(us, learner_std());
-    }
+      std::optional<c10::cuda::CUDAStreamGuard> on_side;  // read after the update, on its stream
+      if (side_) on_side.emplace(*side_);
 #endif
-    const UpdateStats us = ppo_->read_stats();
+      return ppo_->read_stats();  // waits for the update: its parameters are final here
+    }();
     return metrics(us, learner_std());
   }
 

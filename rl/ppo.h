@@ -29,6 +29,9 @@ struct Rollout {
   torch::Tensor rewards;   // reward (+ gamma V(final obs) where the time limit cut the episode)
   torch::Tensor dones;     // 1 where the episode ended at this step (either way), [T, N]
   torch::Tensor log_std;   // the policy's log-std during the rollout, [A]
+  // Every tensor's values from `other`, a rollout of the same shape (in place: the tensors keep
+  // their storage)
+  void copy_from(const Rollout& other);
   int64_t horizon, nslot;
 };
 

@@ -425,22 +425,20 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
   }
   // An algorithm whose update overlaps the next rollout (Algorithm::overlaps_update) gives an
   // update's metrics at the next update() or at finish(): its row waits here until they come.
-  std::vector<double> pending;  // the row without the algorithm's metrics and the faults
-  int64_t pending_faults = 0;
-  auto complete = [&](std::vector<double> row, const std::vector<double>& metrics,
-                      int64_t faults) {
+  std::vector<double> pending;  // the row with its faults last, but the algorithm's metrics
+  // a row (faults last) written with the metrics put before its faults; false where they diverged
+  auto complete = [&](std::vector<double> row, const std::vector<double>& metrics) {
     diverged = non_finite_metric(s, algo, metrics, static_cast<int64_t>(row[0]));
     if (!diverged.empty()) return false;
-    row.insert(row.end(), metrics.begin(), metrics.end());
-    row.push_back(double(faults));
+    row.insert(row.end() - 1, metrics.begin(), metrics.end());
     log.append(row);
     return true;
   };
-  // the row waiting for its metrics, written with them (false where they diverged)
+  // the row waiting for its metrics, written with them
   auto write_pending = [&](const std::vector<double>& metrics) {
     std::vector<double> row;
     row.swap(pending);
-    return complete(std::move(row), metrics, pending_faults);
+    return complete(std::move(row), metrics);
   };
   auto flush = [&] { return pending.empty() || write_pending(algo.finish()); };
   StepTimes times;
@@ -479,9 +477,7 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     const double t_update = monotonic_seconds();
     const std::vector<double> algo_metrics = algo.update(obs);
     // an overlapping update() gives the metrics of the update before, if not yet taken
-    if (algo.overlaps_update() && !algo_metrics.empty() && !pending.empty() &&
-        !write_pending(algo_metrics))
-      break;
+    if (!pending.empty() && !algo_metrics.empty() && !write_pending(algo_metrics)) break;
     if (opt.profile) {
       if (s.device.is_cuda()) torch::cuda::synchronize(s.device.index());
       times.add(t_update - t_iter, sim_s, monotonic_seconds() - t_update, batch);
@@ -525,12 +521,11 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       for (auto& es : per)
         row.push_back(es.episodes ? static_cast<double>(es.successes) / es.episodes : NAN);
     }
-    if (algo.overlaps_update()) {
+    row.push_back(double(faults));
+    if (algo.overlaps_update())
       pending = std::move(row);
-      pending_faults = faults;
-    } else if (!complete(std::move(row), algo_metrics, faults)) {
+    else if (!complete(std::move(row), algo_metrics))
       break;
-    }
     if (with > 0) {
       shown_return = mean_return;
       shown_success = mean_success;

@@ -380,6 +380,14 @@ TEST_CASE("a PPO run with overlap writes each update's row with its own metrics 
     for (double v : metric(dir, col)) CHECK(std::isfinite(v));
   const std::vector<double> vl = metric(dir, "value_loss");
   for (size_t k = 1; k < vl.size(); ++k) CHECK(vl[k] != vl[k - 1]);  // each row its own update's
+  // each column in its place, the metrics before the faults, as without overlap
+  const std::string plain = tmp.file("plain");
+  rl::train_new(test::tiny_yaml("hand_over", {"train.steps=128"}), plain, test::quiet());
+  for (const std::string& d : {dir, plain}) {
+    INFO(d);
+    for (double v : metric(d, "faults")) CHECK((v >= 0 && v == std::floor(v)));
+    for (double v : metric(d, "action_std")) CHECK(v == Approx(0.8).margin(0.05));
+  }
   // stopped after two updates: the second's row comes with the checkpoint, which holds the
   // learner's networks and the acting ones an update behind
   const std::string dir2 = tmp.file("stopped");
