@@ -92,14 +92,6 @@ class Algorithm {
   // its own host synchronisations ("host_syncs"), empty where an algorithm does not split.
   virtual void enable_profile() {}
   virtual std::map<std::string, double> learner_profile() const { return {}; }
-  // An algorithm whose update runs while the next rollout is collected (PPO with ppo.overlap):
-  // update() starts the update of the rollout just collected and returns the metrics of the
-  // update it started at the call before, or nothing where finish() took them already (and at
-  // the first call); finish() waits for the update in flight and returns its metrics, nothing
-  // where none are left. The runner writes each update's row once its metrics are back, and
-  // calls finish() before every checkpoint (save() needs no update in flight) and at the end.
-  virtual bool overlaps_update() const { return false; }
-  virtual std::vector<double> finish() { return {}; }
 };
 
 using AlgorithmFactory = std::function<std::unique_ptr<Algorithm>(

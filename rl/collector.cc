@@ -7,10 +7,6 @@
 #include "taskpack/pack.h"
 #include "taskpack/warp_pack.h"
 
-#ifdef BIDEX_TORCH_CUDA
-#include <c10/cuda/CUDAStream.h>
-#endif
-
 namespace bidex::rl {
 
 double Collector::take_sim_seconds() {
@@ -152,12 +148,8 @@ class DeviceCollector : public Collector {
   }
 
  private:
-  // The learner's current stream only, not the whole device: PPO with ppo.overlap runs its
-  // update on a stream of its own beside the rollout (rl/ppo.cc).
   void wait_for_learner() {
-#ifdef BIDEX_TORCH_CUDA  // (a build without it has no CUDA device)
-    if (device_.is_cuda()) c10::cuda::getCurrentCUDAStream(device_.index()).synchronize();
-#endif
+    if (device_.is_cuda()) torch::cuda::synchronize(device_.index());
   }
 
   taskpack::WarpPack& env_;

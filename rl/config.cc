@@ -281,7 +281,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
                                         "accept_ratio", "step_fraction"}
              : std::vector<std::string>{"clip", "schedule", "desired_kl", "entropy_coef",
                                         "clip_value_loss", "value_clip", "cuda_graph", "bf16",
-                                        "align_widths", "overlap", "advantage_norm"};
+                                        "align_widths", "advantage_norm"};
     keys.insert(keys.end(), own.begin(), own.end());
     p.allow_keys(keys);
     auto& o = c.ppo;
@@ -334,7 +334,6 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();
       if (auto b = p.maybe("bf16")) o.bf16 = b->as<bool>();  // absent before it existed
       if (auto b = p.maybe("align_widths")) o.align_widths = b->as<bool>();  // the same
-      if (auto b = p.maybe("overlap")) o.overlap = b->as<bool>();  // the same
       if (p.has("advantage_norm")) {  // absent from run configs written before it existed
         o.advantage_norm = read_choice(p, "advantage_norm", {"batch", "task"});
         if (o.advantage_norm == "task" && c.algo != "mtppo")

@@ -44,10 +44,6 @@ struct PpoConfig {
   // PPO and MTPPO: the actor's and critic's layers of a width not a multiple of 8 (the
   // observation's, the action's, the value's) padded with zeros to one (rl/policy.h, PaddedLinear)
   bool align_widths = false;
-  // PPO and MTPPO: the update of each rollout runs while the next rollout is collected (on a
-  // CUDA device, on a stream of its own), so the next rollout acts with the policy from before
-  // that update, one update behind the learner (rl/ppo.h, make_ppo)
-  bool overlap = false;
   // advantages normalised over the whole update ("batch") or within each task of a multi-task
   // pack ("task", multi-task PPO: each row's task read from its one-hot id)
   std::string advantage_norm = "batch";

@@ -2,8 +2,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <optional>
-#include <stdexcept>
 #include <string>
 
 #include "rl/autocast.h"
@@ -21,14 +19,6 @@
 #endif
 
 namespace bidex::rl {
-
-void Rollout::copy_from(const Rollout& o) {
-  torch::NoGradGuard ng;
-  for (auto [to, from] : {std::pair{&nobs, &o.nobs}, {&actions, &o.actions}, {&logp, &o.logp},
-                          {&mu, &o.mu}, {&values, &o.values}, {&rewards, &o.rewards},
-                          {&dones, &o.dones}, {&log_std, &o.log_std}})
-    to->copy_(*from);
-}
 
 Rollout::Rollout(int64_t T, int64_t N, int64_t D, int64_t A, const torch::Device& device)
     : horizon(T), nslot(N) {
@@ -196,11 +186,6 @@ void Ppo::epochs(const Rows& rows, int64_t B, [[maybe_unused]] const torch::Tens
 }
 
 UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
-  launch(r, last_value);
-  return read_stats();
-}
-
-void Ppo::launch(const Rollout& r, const torch::Tensor& last_value) {
   timer_.start();
   auto [adv, ret] = gae(r.rewards, r.values, r.dones, last_value, c_.gamma, c_.lambda);
   timer_.mark("gae");
@@ -237,9 +222,6 @@ void Ppo::launch(const Rollout& r, const torch::Tensor& last_value) {
   }
 #endif
   if (eager) epochs(rows, B, nullptr);
-}
-
-UpdateStats Ppo::read_stats() {
   const int n = c_.epochs * c_.minibatches;
   const auto read =
       torch::cat({sums_ / std::max(n, 1), opt_.lr_tensor().reshape({1})}).to(torch::kCPU);
@@ -300,105 +282,19 @@ namespace bidex::rl {
 
 namespace {
 
-// Which of an actor-critic's parameters and buffers copy_state copies.
-enum class Parts { all, but_obs_norm, obs_norm };
-
-// Copies `parts` of `from` into `to` (the same networks).
-void copy_state(ActorCriticImpl& from, ActorCriticImpl& to, Parts parts) {
-  torch::NoGradGuard ng;
-  auto wanted = [&](const std::string& key) {
-    const bool norm = key.rfind("obs_norm.", 0) == 0;
-    return parts == Parts::all || (parts == Parts::obs_norm) == norm;
-  };
-  auto dst = to.named_parameters();
-  for (const auto& p : from.named_parameters())
-    if (wanted(p.key())) dst[p.key()].copy_(p.value());
-  auto dbuf = to.named_buffers();
-  for (const auto& b : from.named_buffers())
-    if (wanted(b.key())) dbuf[b.key()].copy_(b.value());
-}
-
-// A copy of `model` made without drawing from the global generator (a new ActorCritic draws its
-// initial weights from it), so that a run draws the same numbers with ppo.overlap as without.
-ActorCritic twin_of(ActorCritic& model, const PpoConfig& c, int64_t value_tasks) {
-  auto gen = at::detail::getDefaultCPUGenerator();
-  const auto state = gen.get_state();
-  ActorCritic twin(model->obs_dim(), model->act_dim(), c, value_tasks);
-  gen.set_state(state);
-  twin->to(model->log_std().device());
-  copy_state(*model, *twin, Parts::all);
-  return twin;
-}
-
 class PpoAlgorithm final : public GaussianOnPolicy {
  public:
   PpoAlgorithm(const TrainConfig& config, int64_t D, int64_t A, int64_t N,
                const torch::Device& device, int64_t ntasks)
       : GaussianOnPolicy(config.ppo, D, A, N, device, config.ppo.value_norm_task ? ntasks : 0) {
-    if (c_.overlap) {
-      // the learner's own networks and rollout: model_ acts, one update behind
-      learner_ = twin_of(model_, c_, config.ppo.value_norm_task ? ntasks : 0);
-      lro_ = std::make_unique<Rollout>(c_.horizon, N, D, A, device);
-#ifdef BIDEX_TORCH_CUDA
-      if (device.is_cuda()) side_.emplace(c10::cuda::getStreamFromPool(false, device.index()));
-#endif
-    }
-    ppo_ = std::make_unique<Ppo>(c_.overlap ? learner_ : model_, c_, ntasks);
-  }
-
-  ~PpoAlgorithm() override {
-#ifdef BIDEX_TORCH_CUDA
-    if (side_ && pending_) side_->synchronize();  // the update in flight reads our tensors
-#endif
+    ppo_ = std::make_unique<Ppo>(model_, c_, ntasks);
   }
 
   std::vector<double> update(const torch::Tensor& obs) override {
     const torch::Tensor last_value = finish_rollout(obs);
-    if (!c_.overlap) {
-      const UpdateStats us = ppo_->update(*ro_, last_value);
-      return metrics(us, action_std());  // the std after the update
-    }
-    // the update in flight, if any, is done: the next rollout acts with its result, while the
-    // update of the rollout just collected runs beside it
-    std::vector<double> done = finish();
-    {
-      torch::NoGradGuard ng;
-      // the acting networks take the learner's, the learner the acting observation normaliser
-      copy_state(*learner_, *model_, Parts::but_obs_norm);
-      copy_state(*model_, *learner_, Parts::obs_norm);
-      lro_->copy_from(*ro_);
-      if (!last_value_.defined()) last_value_ = torch::empty_like(last_value);
-      last_value_.copy_(last_value);  // kept where it is: the update in flight reads it
-    }
-    {
-#ifdef BIDEX_TORCH_CUDA
-      std::optional<c10::cuda::CUDAStreamGuard> on_side;
-      if (side_) {  // on the update's stream, after the copies above
-        at::cuda::CUDAEvent copied;
-        copied.record(c10::cuda::getCurrentCUDAStream(side_->device_index()));
-        copied.block(*side_);
-        on_side.emplace(*side_);
-      }
-#endif
-      ppo_->launch(*lro_, last_value_);
-    }
-    pending_ = true;
-    return done;
-  }
-
-  bool overlaps_update() const override { return c_.overlap; }
-
-  std::vector<double> finish() override {
-    if (!pending_) return {};
-    pending_ = false;
-    const UpdateStats us = [&] {
-#ifdef BIDEX_TORCH_CUDA
-      std::optional<c10::cuda::CUDAStreamGuard> on_side;  // read after the update, on its stream
-      if (side_) on_side.emplace(*side_);
-#endif
-      return ppo_->read_stats();  // waits for the update: its parameters are final here
-    }();
-    return metrics(us, learner_std());
+    const UpdateStats us = ppo_->update(*ro_, last_value);
+    return {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
+            action_std()};
   }
 
   const std::vector<std::string>& metric_names() const override {
@@ -412,59 +308,20 @@ class PpoAlgorithm final : public GaussianOnPolicy {
     return ppo_->timer().totals();
   }
 
-  // With ppo.overlap: "model" is the learner's networks (what evaluation and a resumed run's
-  // learner load) and "acting" the acting copy, one update behind.
   void save(torch::serialize::OutputArchive& root) override {
-    if (pending_)
-      throw std::logic_error("PPO with ppo.overlap: save() with an update in flight (finish() first)");
-    write_part(root, "model", c_.overlap ? *learner_ : *model_);
+    write_part(root, "model", *model_);
     write_part(root, "optimizer", ppo_->optimizer());  // its learning rate included
-    if (c_.overlap) write_part(root, "acting", *model_);
   }
 
   void load(torch::serialize::InputArchive& root, const std::string& path) override {
     read_checked(path, "does not fit this run's networks", [&] {
-      read_module(root, "model", c_.overlap ? *learner_ : *model_, path, "this run's networks");
+      read_module(root, "model", *model_, path, "this run's networks");
       read_optimizer(root, "optimizer", ppo_->optimizer());
-      if (!c_.overlap) return;
-      torch::serialize::InputArchive acting;
-      if (root.try_read("acting", acting))
-        load_module_checked(*model_, acting, path, "this run's acting networks");
-      else  // saved without ppo.overlap: the acting networks start as the learner's
-        copy_state(*learner_, *model_, Parts::all);
     });
   }
 
-  // Evaluation: the checkpoint's "model" into both networks (actor() acts with the learner's).
-  void load_actor(torch::serialize::InputArchive& root, const std::string& path) override {
-    GaussianOnPolicy::load_actor(root, path);
-    if (c_.overlap) copy_state(*model_, *learner_, Parts::all);
-  }
-
-  torch::Tensor actor(const torch::Tensor& obs) override {
-    if (!c_.overlap) return GaussianOnPolicy::actor(obs);
-    torch::NoGradGuard ng;  // the newest policy, the learner's
-    return learner_->mean(learner_->normalize_obs(obs)).clamp(-1.0, 1.0);
-  }
-
  private:
-  static std::vector<double> metrics(const UpdateStats& us, double action_std) {
-    return {us.policy_loss, us.value_loss, us.entropy, us.kl, us.lr, us.clip_fraction,
-            action_std};
-  }
-  double learner_std() const {
-    torch::NoGradGuard ng;
-    return torch::exp(learner_->log_std()).mean().item<double>();
-  }
-
   std::unique_ptr<Ppo> ppo_;
-  ActorCritic learner_{nullptr};   // ppo.overlap: the networks the updates step
-  std::unique_ptr<Rollout> lro_;   // ppo.overlap: the rollout the update in flight reads
-  torch::Tensor last_value_;
-  bool pending_ = false;           // an update started whose metrics finish() has not taken
-#ifdef BIDEX_TORCH_CUDA
-  std::optional<c10::cuda::CUDAStream> side_;  // ppo.overlap on a CUDA device: the update's stream
-#endif
 };
 
 }  // namespace

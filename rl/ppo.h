@@ -29,9 +29,6 @@ struct Rollout {
   torch::Tensor rewards;   // reward (+ gamma V(final obs) where the time limit cut the episode)
   torch::Tensor dones;     // 1 where the episode ended at this step (either way), [T, N]
   torch::Tensor log_std;   // the policy's log-std during the rollout, [A]
-  // Every tensor's values from `other`, a rollout of the same shape (in place: the tensors keep
-  // their storage)
-  void copy_from(const Rollout& other);
   int64_t horizon, nslot;
 };
 
@@ -73,11 +70,6 @@ class Ppo {
 
   // Runs the epochs and minibatches over `r`, `last_value` = V(obs after the rollout).
   UpdateStats update(const Rollout& r, const torch::Tensor& last_value);
-  // update() in two halves: launch() queues the whole update on the current stream (on a CUDA
-  // device it returns before the device is done, reading nothing back); read_stats() waits for
-  // it on the current stream and reads its statistics.
-  void launch(const Rollout& r, const torch::Tensor& last_value);
-  UpdateStats read_stats();
 
   // the optimiser, which holds the adaptive learning rate
   FlatAdam& optimizer() { return opt_; }

@@ -365,9 +365,9 @@ void write_profile(const Session& s, const Algorithm& algo, const StepTimes& t) 
 
 // An update whose metrics are not all finite has stepped the learner's parameters with a
 // non-finite loss or gradient: the run stops there without saving them, so its checkpoints stay
-// as they were. Returns the message (empty when every metric is finite); `update` counts from 1.
+// as they were. Returns the message (empty when every metric is finite).
 std::string non_finite_metric(const Session& s, const Algorithm& algo,
-                              const std::vector<double>& metrics, int64_t update) {
+                              const std::vector<double>& metrics) {
   const std::vector<std::string>& names = algo.metric_names();
   for (size_t k = 0; k < metrics.size(); ++k) {
     if (std::isfinite(metrics[k])) continue;
@@ -378,7 +378,7 @@ std::string non_finite_metric(const Session& s, const Algorithm& algo,
               "or a smaller gradient clip may help)"
             : "the newest checkpoint, " + s.last_checkpoint +
                   ", is untouched: bidex train --resume " + s.dir + " goes on from it";
-    return "train " + s.dir + ": update " + std::to_string(update) +
+    return "train " + s.dir + ": update " + std::to_string(s.update + 1) +
            " diverged: its metric " + name + " is " + fmt("%g", metrics[k]) +
            " (expected a finite number); the parameters it stepped are not saved, and " + keep;
   }
@@ -423,24 +423,6 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     const double t = monotonic_seconds() + opt.time_limit_s;
     stop_at = stop_at > 0 ? std::min(stop_at, t) : t;
   }
-  // An algorithm whose update overlaps the next rollout (Algorithm::overlaps_update) gives an
-  // update's metrics at the next update() or at finish(): its row waits here until they come.
-  std::vector<double> pending;  // the row with its faults last, but the algorithm's metrics
-  // a row (faults last) written with the metrics put before its faults; false where they diverged
-  auto complete = [&](std::vector<double> row, const std::vector<double>& metrics) {
-    diverged = non_finite_metric(s, algo, metrics, static_cast<int64_t>(row[0]));
-    if (!diverged.empty()) return false;
-    row.insert(row.end() - 1, metrics.begin(), metrics.end());
-    log.append(row);
-    return true;
-  };
-  // the row waiting for its metrics, written with them
-  auto write_pending = [&](const std::vector<double>& metrics) {
-    std::vector<double> row;
-    row.swap(pending);
-    return complete(std::move(row), metrics);
-  };
-  auto flush = [&] { return pending.empty() || write_pending(algo.finish()); };
   StepTimes times;
   if (opt.profile) {
     env.set_profile(true);
@@ -476,8 +458,8 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
     }
     const double t_update = monotonic_seconds();
     const std::vector<double> algo_metrics = algo.update(obs);
-    // an overlapping update() gives the metrics of the update before, if not yet taken
-    if (!pending.empty() && !algo_metrics.empty() && !write_pending(algo_metrics)) break;
+    diverged = non_finite_metric(s, algo, algo_metrics);
+    if (!diverged.empty()) break;
     if (opt.profile) {
       if (s.device.is_cuda()) torch::cuda::synchronize(s.device.index());
       times.add(t_update - t_iter, sim_s, monotonic_seconds() - t_update, batch);
@@ -521,20 +503,15 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       for (auto& es : per)
         row.push_back(es.episodes ? static_cast<double>(es.successes) / es.episodes : NAN);
     }
+    row.insert(row.end(), algo_metrics.begin(), algo_metrics.end());
     row.push_back(double(faults));
-    if (algo.overlaps_update())
-      pending = std::move(row);
-    else if (!complete(std::move(row), algo_metrics))
-      break;
+    log.append(row);
     if (with > 0) {
       shown_return = mean_return;
       shown_success = mean_success;
     }
     if (s.update % s.cfg.plot_interval == 0) log.plot(title);
-    if (s.update % s.cfg.save_interval == 0) {
-      if (!flush()) break;  // a checkpoint holds no update in flight
-      s.save();
-    }
+    if (s.update % s.cfg.save_interval == 0) s.save();
     if (bar) {
       bar->set_status("fps " + fmt("%.0f", batch / iter) + " return " +
                      fmt("%.3g", shown_return) + " success " + fmt("%.2f", shown_success));
@@ -547,7 +524,6 @@ TrainResult run_loop(Session& s, MetricsLog& log, const TrainOptions& opt) {
       break;
     }
   }
-  if (diverged.empty()) flush();  // the last update's row
   if (bar) bar->finish();
   if (recorder) recorder->finish();  // an interrupted run keeps the episodes it recorded
   if (!diverged.empty()) {

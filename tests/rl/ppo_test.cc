@@ -1,8 +1,8 @@
 // The building blocks of PPO against hand-worked values: GAE with episode ends, the running
 // normaliser, the Gaussian's density, entropy and KL, and PPO's update moving a policy towards
 // better actions. The update on the device (FlatAdam, the KL-adaptive rate without a read back)
-// against the update as it ran with LibTorch's Adam and the host's rule, a PPO run saved and
-// loaded against the unbroken run, and PPO with ppo.overlap acting one update behind.
+// against the update as it ran with LibTorch's Adam and the host's rule, and a PPO run saved and
+// loaded against the unbroken run.
 #include "tests/rl/mirror_fixture.h"
 
 #include <algorithm>
@@ -11,7 +11,6 @@
 
 #include "rl/algorithm.h"
 #include "rl/autocast.h"
-#include "rl/checkpoint.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
 
@@ -633,52 +632,36 @@ TEST_CASE("PPO with value_norm per task normalises each task's returns by its ow
   CHECK(torch::equal(m->value_groups(obs[0]), task));
 }
 
-namespace {
-// A rollout of synthetic steps drawn from `seed` (observations, rewards, ends), then the update;
-// returns the actions the algorithm sampled, and its update's metrics in `metrics`.
-torch::Tensor synthetic_rollout(rl::Algorithm& alg, uint64_t seed, int64_t N, int64_t D,
-                                std::vector<double>* metrics = nullptr) {
-  torch::manual_seed(seed);
-  std::vector<torch::Tensor> actions;
-  for (int t = 0; t < alg.steps_per_update(); ++t) {
-    actions.push_back(alg.act(torch::randn({N, D})));
-    rl::Transition tr;
-    tr.obs = torch::randn({N, D});
-    tr.reward = torch::randn({N});
-    tr.done = (torch::rand({N}) < 0.2).to(torch::kFloat32);
-    tr.final_ids = torch::empty({0}, torch::kLong);
-    tr.final_obs = torch::empty({0, D});
-    alg.observe(tr);
-  }
-  auto m = alg.update(torch::randn({N, D}));
-  if (metrics) *metrics = m;
-  return torch::stack(actions);
-}
-}  // namespace
-
 TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]") {
   rl::TrainConfig tc;
   tc.ppo.hidden = {16};
   tc.ppo.horizon = 4;
   tc.ppo.epochs = 2;
   tc.ppo.minibatches = 2;
-  // also with the update beside the next rollout: the acting networks, one update behind the
-  // learner's, come back too
-  tc.ppo.overlap = GENERATE(false, true);
   const int64_t N = 8, D = 3, A = 2;
   auto make = [&](uint64_t seed) {
     torch::manual_seed(seed);
     return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
   };
+  auto run_update = [&](rl::Algorithm& alg, uint64_t seed) {
+    torch::manual_seed(seed);
+    for (int t = 0; t < alg.steps_per_update(); ++t) {
+      alg.act(torch::randn({N, D}));
+      rl::Transition tr;
+      tr.obs = torch::randn({N, D});
+      tr.reward = torch::randn({N});
+      tr.done = (torch::rand({N}) < 0.2).to(torch::kFloat32);
+      tr.final_ids = torch::empty({0}, torch::kLong);
+      tr.final_obs = torch::empty({0, D});
+      alg.observe(tr);
+    }
+    return alg.update(torch::randn({N, D}));
+  };
   auto a = make(1);
-  synthetic_rollout(*a, 10, N, D);
-  synthetic_rollout(*a, 11, N, D);
-  a->finish();  // as the runner does before a checkpoint (nothing to do without overlap)
+  run_update(*a, 10);
+  run_update(*a, 11);
   torch::serialize::OutputArchive out;
   a->save(out);
-  torch::manual_seed(15);
-  const auto probe = torch::randn({N, D});
-  const auto saved_actor = a->actor(probe);  // the run's newest policy when it saved
   std::ostringstream bytes;
   out.save_to(bytes);
   auto b = make(2);
@@ -689,91 +672,10 @@ TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]
     b->load(in, "memory");
   }
   for (uint64_t seed : {12, 13}) {
-    std::vector<double> ma, mb;
-    CHECK(torch::equal(synthetic_rollout(*a, seed, N, D, &ma),
-                       synthetic_rollout(*b, seed, N, D, &mb)));
+    const auto ma = run_update(*a, seed), mb = run_update(*b, seed);
     CHECK(ma == mb);
   }
-  CHECK(a->finish() == b->finish());
   torch::manual_seed(14);
   const auto obs = torch::randn({N, D});
   CHECK(torch::equal(a->actor(obs), b->actor(obs)));
-  // evaluation loads the actor alone, and acts as the run's newest policy did
-  auto c = make(3);
-  {
-    torch::serialize::InputArchive in;
-    std::istringstream is(bytes.str());
-    in.load_from(is);
-    c->load_actor(in, "memory");
-  }
-  CHECK(torch::equal(c->actor(probe), saved_actor));
-  if (tc.ppo.overlap) {  // the learner's observation normaliser is the acting one's
-    torch::serialize::InputArchive in, model_part, acting_part;
-    std::istringstream is(bytes.str());
-    in.load_from(is);
-    in.read("model", model_part);
-    in.read("acting", acting_part);
-    rl::ActorCritic learner(D, A, tc.ppo), acting(D, A, tc.ppo);
-    rl::load_module_checked(*learner, model_part, "memory", "learner");
-    rl::load_module_checked(*acting, acting_part, "memory", "acting");
-    auto lb = learner->named_buffers(), ab = acting->named_buffers();
-    for (const char* key : {"obs_norm.mean", "obs_norm.var", "obs_norm.count"}) {
-      CHECK(torch::equal(lb[key], ab[key]));
-      CHECK_FALSE(torch::equal(lb[key], rl::ActorCritic(D, A, tc.ppo)->named_buffers()[key]));
-    }
-  }
-}
-
-
-TEST_CASE("PPO with overlap acts one update behind its learner and steps the learner as the plain update does",
-          "[rl][ppo]") {
-  rl::TrainConfig tc;
-  tc.ppo.hidden = {16};
-  tc.ppo.horizon = 4;
-  tc.ppo.epochs = 2;
-  tc.ppo.minibatches = 2;
-  tc.ppo.obs_norm = false;  // the acting networks alone decide the actions
-  const int64_t N = 8, D = 3, A = 2;
-  auto make = [&](bool overlap) {
-    tc.ppo.overlap = overlap;
-    torch::manual_seed(1);
-    return rl::make_algorithm("ppo", tc, D, A, N, torch::kCPU);
-  };
-  auto plain = make(false), lagged = make(true), once = make(false), fresh = make(false);
-  CHECK_FALSE(plain->overlaps_update());
-  CHECK(lagged->overlaps_update());
-  CHECK(plain->finish().empty());
-  // the first rollout: both act with the initial networks; the plain update gives its metrics
-  // at once, the overlapped one at finish(), the same numbers
-  std::vector<double> m_plain, m_lagged;
-  const auto a_plain = synthetic_rollout(*plain, 10, N, D, &m_plain);
-  const auto a_lagged = synthetic_rollout(*lagged, 10, N, D, &m_lagged);
-  synthetic_rollout(*once, 10, N, D);
-  CHECK(torch::equal(a_plain, a_lagged));
-  CHECK(m_lagged.empty());
-  const std::vector<double> finished = lagged->finish();
-  CHECK(finished == m_plain);
-  CHECK(lagged->finish().empty());  // taken once
-  torch::manual_seed(3);
-  const auto x = torch::randn({5, D});
-  CHECK(torch::equal(lagged->actor(x), plain->actor(x)));  // the learner: one update done
-  // the second rollout: the overlapped run acts with the networks from before the update, as a
-  // run that never updated; the plain run with the updated ones
-  const auto b_plain = synthetic_rollout(*plain, 11, N, D);
-  const auto b_lagged = synthetic_rollout(*lagged, 11, N, D, &m_lagged);
-  const auto b_fresh = synthetic_rollout(*fresh, 11, N, D);
-  CHECK(torch::equal(b_lagged, b_fresh));
-  CHECK_FALSE(torch::equal(b_lagged, b_plain));
-  CHECK(m_lagged.empty());  // finish() took the first update's metrics
-  // the third: the overlapped run acts with the networks after one update, as `once` does
-  const auto c_lagged = synthetic_rollout(*lagged, 12, N, D, &m_lagged);
-  const auto c_once = synthetic_rollout(*once, 12, N, D);
-  CHECK(torch::equal(c_lagged, c_once));
-  REQUIRE(m_lagged.size() == 7);  // the second update's, given by the third update()
-  for (double v : m_lagged) CHECK(std::isfinite(v));
-  // a checkpoint needs the update in flight finished
-  torch::serialize::OutputArchive out;
-  CHECK_THROWS_AS(lagged->save(out), std::logic_error);
-  CHECK(lagged->finish().size() == 7);
-  lagged->save(out);
 }
