@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -28,6 +29,7 @@
 #include "rl/config.h"
 #include "rl/metrics.h"
 #include "rl/trainer.h"
+#include "sim/hand_spec.h"
 #include "taskpack/suite.h"
 #include "tasks/registry.h"
 
@@ -98,6 +100,18 @@ std::string record_dataset(registry::Registry& reg, const std::string& path) {
   return r.checksum;
 }
 
+// The YAML a task's run plays when it is not the task's own (a training aid, such as
+// re_orientation's reward for progress in its section of configs/train/ppo.yaml), or "" when it
+// is the task's own or the run is a suite's. Scores under such a YAML are on its reward, not on
+// the scale of the registry's references, so the registry does not store them.
+std::string foreign_task_yaml(const std::string& task, const std::string& yaml) {
+  if (task.empty() || yaml.empty()) return "";
+  std::error_code ec;
+  if (std::filesystem::equivalent(sim::resolve_data_path(yaml), tasks::default_task_config(task), ec))
+    return "";
+  return yaml;
+}
+
 // One run's row in the registry: created when the run folder is ready (its id kept in
 // <run>/registry.json, so that --resume updates the same row), completed when training ends.
 class RunRecorder {
@@ -108,6 +122,7 @@ class RunRecorder {
   void start(const rl::TrainConfig& c, const std::string& run_dir) {
     if (!enabled()) return;
     reg_ = std::make_unique<registry::Registry>(path_);
+    foreign_ = foreign_task_yaml(c.task, c.task_config);
     const std::string link = run_dir + "/registry.json";
     const std::string abs_reg = absolute(path_);
     if (::access(link.c_str(), F_OK) == 0) {  // a resumed run: the same row, if it is in this registry
@@ -143,7 +158,9 @@ class RunRecorder {
     rec_.status = status;
     rec_.finished.clear();  // the registry writes the end time
     std::vector<registry::TaskScore> scores;
-    if (r) {
+    if (r && !foreign_.empty()) {
+      rec_.steps = r->steps;  // its returns are on another reward than the references'
+    } else if (r) {
       rec_.steps = r->steps;
       if (std::isfinite(r->last_return)) rec_.final_return = r->last_return;
       if (std::isfinite(r->last_success)) rec_.final_success = r->last_success;
@@ -165,6 +182,10 @@ class RunRecorder {
   // dataset's references, on the paper's scale (random 0, online PPO 100).
   std::string normalised(const std::string& task, double mean_return) const {
     if (!reg_ || !std::isfinite(mean_return)) return "";
+    if (!foreign_.empty())
+      return "normalised n/a: trained under " + foreign_ + ", whose reward is not the registry's "
+             "scale; the registry stores no score of it (bidex eval --run DIR --task-config " +
+             tasks::default_task_config(task) + " stores its mean action's)";
     if (!rec_.dataset.empty()) {
       auto n = reg_->offline_normalised(rec_.dataset, mean_return);
       return n ? "normalised score " + num(*n, "%.1f") + " (random 0, online PPO 100)"
@@ -181,6 +202,7 @@ class RunRecorder {
   std::unique_ptr<registry::Registry> reg_;
   registry::RunRecord rec_;
   int64_t id_ = 0;
+  std::string foreign_;  // foreign_task_yaml of the run
 };
 
 // The final scores of a run, one line per task of a suite.
@@ -616,6 +638,7 @@ void add_eval_command(CLI::App& app) {
   cmd->callback([o] {
     rl::EvalResult r;
     std::string what, checkpoint, target;
+    std::string target_task, policy_config;  // a run's task ("" for a suite's) and its task YAML
     int64_t update = 0;
     rl::set_policy_threads(o->threads);  // --threads: the policy's as the simulation's
     // what is evaluated: a baseline policy (--random, --zero) on a task or suite, or a run's
@@ -659,6 +682,8 @@ void add_eval_command(CLI::App& app) {
       }
       r = rl::evaluate(policy, o->episodes, o->seed, o->threads, o->task_config, true);
       target = policy.config().target();
+      target_task = policy.config().task;
+      policy_config = policy.config().task_config;
       what = target;
       if (!o->task_config.empty()) what += " under " + o->task_config;
       checkpoint = policy.checkpoint();
@@ -698,9 +723,14 @@ void add_eval_command(CLI::App& app) {
     int64_t eval_id = 0;
     if (policy == "checkpoint" && !o->no_registry) {
       registry::Registry reg(o->registry.empty() ? registry::default_path() : o->registry);
-      if (!o->task_config.empty()) {
-        std::printf("registry %s: not stored (played under --task-config, not the run's own "
-                    "task)\n", reg.path().c_str());
+      const std::string played = o->task_config.empty() ? policy_config : o->task_config;
+      const std::string foreign = foreign_task_yaml(target_task, played);
+      if (!foreign.empty()) {
+        std::printf("registry %s: not stored (played under %s, not the task's own YAML: its "
+                    "reward is not the scale of the registry's references; --task-config %s "
+                    "plays and stores it)\n",
+                    reg.path().c_str(), foreign.c_str(),
+                    tasks::default_task_config(target_task).c_str());
       } else {
         registry::Evaluation ev;
         ev.split = "train";

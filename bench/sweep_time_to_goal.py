@@ -14,8 +14,9 @@ episodes) counts at its last update ("by: evaluation", an upper bound); one that
 The run of each task: seed 0 at the task's default, the one that trained furthest (a suite's
 run in a folder, MT20 or ML20, is left out). Default: the
 training settings of configs/train/ppo.yaml (the task's slots and minibatches, else the sweep's
-16,384 and 16) and the task's current version (run.json's task_version, against `bidex info`),
-or a sweep YAML that equals today's default (EQUIVALENT).
+16,384 and 16, and the other PPO settings of the task's section) and the task's YAML: its own at
+its current version (run.json's task_version, against `bidex info`), the training YAML of the
+task's section, or a sweep YAML whose terms equal today's default (EQUIVALENT).
 Usage: bench/sweep_time_to_goal.py DIR [DIR...] [--bidex build/apps/bidex]
                                    [--out configs/registry/time_to_goal.yaml]"""
 import argparse, json, os, subprocess, sys
@@ -30,13 +31,20 @@ SUCCESS_GOAL = 0.8
 # sweep YAMLs whose terms are today's default of their task (each task's README says so)
 EQUIVALENT = {"pour_water": "bench/sweep/pour_lift_steep.yaml",   # version 2
               "pen": "bench/sweep/pen_reach2.yaml",                # version 2
-              "block_stack": "bench/sweep/block_stack_original.yaml"}  # version 2
+              "block_stack": "bench/sweep/block_stack_original.yaml",  # version 2
+              # the terms of its training YAML, tasks/re_orientation/re_orientation_progress.yaml
+              "re_orientation": "bench/sweep/reorient_progress100.yaml"}
 GOAL_FROM_ORIGINAL = set(ORIGINAL_PPO_FINAL) - {"hand_over"}  # hand_over's ground truth is bidex's
+
+
+def task_section(task):
+    """the task's section of configs/train/ppo.yaml ({} when it has none)"""
+    return yaml.safe_load(open("configs/train/ppo.yaml"))["per_task"].get(task) or {}
 
 
 def default_training(task):
     """(slots, minibatches) of the task's default PPO training on the GPU sweep"""
-    t = (yaml.safe_load(open("configs/train/ppo.yaml"))["per_task"].get(task) or {})
+    t = task_section(task)
     slots = (t.get("env") or {}).get("slots")
     return (slots, (t.get("ppo") or {}).get("minibatches", 4)) if slots else (16384, 16)
 
@@ -48,9 +56,15 @@ def is_default(run_dir, task, version):
         return False
     if (cfg["env"]["slots"], cfg["ppo"]["minibatches"]) != default_training(task):
         return False
+    section = task_section(task)
+    # the section's other PPO settings (minibatches: the sweep's, above)
+    for key, value in (section.get("ppo") or {}).items():
+        if key != "minibatches" and cfg["ppo"].get(key) != value:
+            return False
     config = cfg["env"].get("task_config") or ""
-    if config:
-        return config == EQUIVALENT.get(task)
+    aid = (section.get("env") or {}).get("task_config") or ""
+    if config or aid:
+        return config in (aid, EQUIVALENT.get(task)) and bool(config)
     return info.get("task_version") == f"{task}-v{version}"
 
 

@@ -77,6 +77,18 @@ TEST_CASE("per-task columns of the paper's table and the sweep's apply to their 
     CHECK(c.batch() == 4096 * 8);
   }
   CHECK(resolve("door_open_outward").slots == 2048);
+  // re_orientation's measured recipe: its training YAML (the progress term), a discount of 0.99,
+  // a critic on normalised returns and 200M slot-steps
+  const auto reo = resolve("re_orientation");
+  CHECK(reo.ppo.gamma == 0.99);
+  CHECK(reo.ppo.value_norm);
+  CHECK(reo.steps == 200000000);
+  const std::string aid = "tasks/re_orientation/re_orientation_progress.yaml";
+  REQUIRE(reo.task_config.size() >= aid.size());
+  CHECK(reo.task_config.substr(reo.task_config.size() - aid.size()) == aid);
+  CHECK(std::ifstream(reo.task_config).good());
+  CHECK(resolve("catch_underarm").task_config.empty());
+  CHECK(resolve("catch_underarm").ppo.gamma == 0.96);
 }
 
 TEST_CASE("overrides (-o) change nested keys with YAML values", "[rl][config]") {

@@ -14,6 +14,7 @@
 
 #include "core/clock.h"
 #include "core/error.h"
+#include "registry/registry.h"
 #include "rl/checkpoint.h"
 #include "rl/metrics.h"
 #include "rl/trainer.h"
@@ -457,6 +458,45 @@ TEST_CASE("a run under re_orientation's curriculum logs the slots' mean level", 
   CHECK(read_file(plain + "/metrics.csv").find("curriculum_level") == std::string::npos);
 }
 
+TEST_CASE("the registry stores no score of a run played under another YAML of its task than its own",
+          "[rl][train][apps]") {
+  test::TaskTempDir tmp;
+  // a training aid: the task's YAML with shorter episodes (as re_orientation's progress term)
+  const std::string aid = tmp.write("aid.yaml", "extends: " +
+                                                    tasks::default_task_config("catch_underarm_raise") +
+                                                    "\nepisode_length: 20\n");
+  const std::string dir = tmp.file("run"), db = tmp.file("reg.sqlite"), reg = " --registry " + db;
+  auto t = test::bidex_run("train --task catch_underarm_raise -o env.slots=4 -o env.threads=1 "
+                           "-o train.steps=128 -o ppo.hidden=[16] -o train.device=cpu "
+                           "-o env.task_config=" + aid + " --run " + dir + reg);
+  INFO(t.out);
+  REQUIRE(t.rc == 0);
+  CHECK(t.out.find("normalised n/a: trained under " + aid) != std::string::npos);
+  {
+    registry::Registry r(db);
+    const auto run = r.run_by_dir(dir);
+    REQUIRE(run);
+    CHECK(run->status == "finished");
+    CHECK(run->steps == 128);
+    CHECK(r.scores(run->id).empty());
+    CHECK_FALSE(run->final_return);
+  }
+  // its mean action under the aid is not stored; under the task's own YAML it is
+  auto e = test::bidex_run("eval --run " + dir + " --episodes 2 --threads 1" + reg);
+  INFO(e.out);
+  REQUIRE(e.rc == 0);
+  CHECK(e.out.find("mean length 20.0") != std::string::npos);
+  CHECK(e.out.find("not stored (played under " + aid) != std::string::npos);
+  CHECK(test::bidex_run("registry evals" + reg).out.find("1 evaluation in") == std::string::npos);
+  e = test::bidex_run("eval --run " + dir + " --episodes 2 --threads 1 --task-config " +
+                      tasks::default_task_config("catch_underarm_raise") + reg);
+  INFO(e.out);
+  REQUIRE(e.rc == 0);
+  CHECK(e.out.find("mean length 40.0") != std::string::npos);
+  CHECK(e.out.find(": evaluation 1 of run 1 (") != std::string::npos);
+  CHECK(test::bidex_run("registry evals" + reg).out.find("1 evaluation in") != std::string::npos);
+}
+
 TEST_CASE("bidex train, eval and render --run work from the command line", "[rl][train][apps]") {
   test::TaskTempDir tmp;
   const std::string dir = tmp.file("run"), reg = " --registry " + tmp.file("reg.sqlite");
@@ -487,12 +527,13 @@ TEST_CASE("bidex train, eval and render --run work from the command line", "[rl]
   INFO(e.out);
   REQUIRE(e.rc == 0);
   CHECK(e.out.find(": evaluation ") == std::string::npos);
+  // the task's own YAML named with --task-config is the task itself: stored
   e = test::bidex_run("eval --run " + dir + " --episodes 2 --threads 1 --task-config " +
                       tasks::default_task_config("hand_over") + reg);
   INFO(e.out);
   REQUIRE(e.rc == 0);
-  CHECK(e.out.find("not stored (played under --task-config") != std::string::npos);
-  CHECK(test::bidex_run("registry evals" + reg).out.find("1 evaluation in") != std::string::npos);
+  CHECK(e.out.find(": evaluation 2 of run 1 (") != std::string::npos);
+  CHECK(test::bidex_run("registry evals" + reg).out.find("2 evaluations in") != std::string::npos);
   auto h = test::bidex_run("train --help");
   CHECK(h.out.find("--resume") != std::string::npos);
   CHECK(h.out.find("-o,--override") != std::string::npos);

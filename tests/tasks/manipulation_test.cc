@@ -822,6 +822,34 @@ TEST_CASE("re_orientation's rotation_progress pays each step's decrease of theta
                     Catch::Contains("rotation_progress") && Catch::Contains("-1"));
 }
 
+TEST_CASE("re_orientation's training YAML pays 100 per radian of progress on the task's own terms",
+          "[tasks][manip][reward]") {
+  // PPO's default for this task (configs/train/ppo.yaml) trains under it; the task is its own YAML
+  std::string aid = tasks::default_task_config("re_orientation");
+  aid.replace(aid.rfind('/') + 1, std::string::npos, "re_orientation_progress.yaml");
+  auto env = make_env("re_orientation", 1, 3, 0, aid);
+  auto own = make_env("re_orientation", 1, 3);
+  const Q g = qaxis(0.3, -0.5, 0.8, 1.1);
+  std::vector<double> t, u;
+  for (auto* e : {env.get(), own.get()}) {
+    set_goal(*e, 0, 0, {0, -0.39, 0.6}, g);
+    set_goal(*e, 0, 1, {0, -0.76, 0.6}, g);
+  }
+  for (double a : {0.5, 0.3}) {
+    for (auto* e : {env.get(), own.get()}) {
+      place_object(*e, 0, "object1", {0, -0.39, 0.6}, qmul(qaxis(0, 0, 1, a), g));
+      place_object(*e, 0, "object2", {0, -0.76, 0.6}, qmul(qaxis(1, 0, 0, a), g));
+      sync(*e, 0);
+    }
+    evaluate(*env, 0, t);
+    evaluate(*own, 0, u);
+  }
+  CHECK(t[term(*env, "rotation_progress")] == Approx(100 * (0.2 + 0.2)).epsilon(1e-9));
+  CHECK(u[term(*own, "rotation_progress")] == 0);
+  for (const char* k : {"position", "rotation1", "rotation2", "goal_bonus", "action_penalty"})
+    CHECK(t[term(*env, k)] == Approx(u[term(*own, k)]).epsilon(1e-12));
+}
+
 TEST_CASE("re_orientation's curriculum: goals turned at most level x pi, the level up at each goal "
           "and down at each reset", "[tasks][manip][oracle]") {
   TaskTempDir dir;
