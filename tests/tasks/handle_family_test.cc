@@ -4,7 +4,7 @@
 // task's code: handle points from the geometry, fingertip and palm points from mjData's body
 // frames), an oracle per task (the object driven into its goal state fires success and gives
 // the goal term its best value; the opposite state does not), resets, random-action smoke
-// tests, determinism across thread counts, bad YAML errors and a 100k slot-step soak per task.
+// tests, determinism across thread counts, bad YAML errors and a 50k slot-step soak per task.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -803,23 +803,23 @@ TEST_CASE("handle tasks: bad YAML is a ConfigError naming file, key, expected, a
 // ---- soak ---------------------------------------------------------------------------------
 // tests/tasks/task_fixture.h soak_task, on episodes cut to 60 steps so that every slot resets
 // inside step
-TEST_CASE("soak: lift_underarm: 100k random slot-steps without a fault",
+TEST_CASE("soak: lift_underarm: 50k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
   soak_task("lift_underarm", 60);
 }
-TEST_CASE("soak: door_open_outward: 100k random slot-steps without a fault",
+TEST_CASE("soak: door_open_outward: 50k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
   soak_task("door_open_outward", 60);
 }
-TEST_CASE("soak: door_close_inward: 100k random slot-steps without a fault",
+TEST_CASE("soak: door_close_inward: 50k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
   soak_task("door_close_inward", 60);
 }
-TEST_CASE("soak: door_open_inward: 100k random slot-steps without a fault",
+TEST_CASE("soak: door_open_inward: 50k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
   soak_task("door_open_inward", 60);
 }
-TEST_CASE("soak: door_close_outward: 100k random slot-steps without a fault",
+TEST_CASE("soak: door_close_outward: 50k random slot-steps without a fault",
           "[tasks][soak][handle_soak]") {
   soak_task("door_close_outward", 60);
 }

@@ -3,7 +3,7 @@
 // each reward term against values worked out by hand on crafted states, an oracle per task
 // (the object driven into its goal state directly: success fires and the goal term is at its
 // best; the opposite state does not succeed), reset ranges, random-action smoke runs at 3 and
-// 16 slots, determinism over thread counts, strict YAML errors, and a 100k slot-step soak each.
+// 16 slots, determinism over thread counts, strict YAML errors, and a 50k slot-step soak each.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -1129,18 +1129,18 @@ TEST_CASE("manipulation tasks: bad YAML is a ConfigError naming file, key, expec
 // ---- soak ------------------------------------------------------------------------------------
 // tests/tasks/task_fixture.h soak_task, on episodes cut to 75 steps so that every slot resets
 // inside step
-TEST_CASE("soak: bottle_cap: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
+TEST_CASE("soak: bottle_cap: 50k random slot-steps without a fault", "[tasks][manip][soak]") {
   soak_task("bottle_cap", 75);
 }
-TEST_CASE("soak: push_block: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
+TEST_CASE("soak: push_block: 50k random slot-steps without a fault", "[tasks][manip][soak]") {
   soak_task("push_block", 75);
 }
-TEST_CASE("soak: re_orientation: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
+TEST_CASE("soak: re_orientation: 50k random slot-steps without a fault", "[tasks][manip][soak]") {
   soak_task("re_orientation", 75);
 }
-TEST_CASE("soak: block_stack: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
+TEST_CASE("soak: block_stack: 50k random slot-steps without a fault", "[tasks][manip][soak]") {
   soak_task("block_stack", 75);
 }
-TEST_CASE("soak: grasp_and_place: 100k random slot-steps without a fault", "[tasks][manip][soak]") {
+TEST_CASE("soak: grasp_and_place: 50k random slot-steps without a fault", "[tasks][manip][soak]") {
   soak_task("grasp_and_place", 75);
 }

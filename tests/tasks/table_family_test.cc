@@ -2,7 +2,7 @@
 // index tables, every reward term against values worked out here from the README's geometry on
 // crafted states, an oracle per task (the object driven into its goal state fires success and
 // the goal term's best value; the opposite state does not), resets, random-action rollouts,
-// determinism, strict YAML errors and a 100k slot-step soak per task.
+// determinism, strict YAML errors and a 50k slot-step soak per task.
 #include <chrono>
 #include <cstring>
 #include <functional>
@@ -810,18 +810,18 @@ TEST_CASE("bad table family YAML files are ConfigErrors naming file, key, expect
 // ---- soak ---------------------------------------------------------------------------------
 // tests/tasks/task_fixture.h soak_task, on episodes cut to 60 steps so that every slot resets
 // inside step
-TEST_CASE("soak: swing_cup: 100k random slot-steps without a fault", "[tasks][table][soak]") {
+TEST_CASE("soak: swing_cup: 50k random slot-steps without a fault", "[tasks][table][soak]") {
   soak_task("swing_cup", 60);
 }
-TEST_CASE("soak: scissors: 100k random slot-steps without a fault", "[tasks][table][soak]") {
+TEST_CASE("soak: scissors: 50k random slot-steps without a fault", "[tasks][table][soak]") {
   soak_task("scissors", 60);
 }
-TEST_CASE("soak: pen: 100k random slot-steps without a fault", "[tasks][table][soak]") {
+TEST_CASE("soak: pen: 50k random slot-steps without a fault", "[tasks][table][soak]") {
   soak_task("pen", 60);
 }
-TEST_CASE("soak: switch: 100k random slot-steps without a fault", "[tasks][table][soak]") {
+TEST_CASE("soak: switch: 50k random slot-steps without a fault", "[tasks][table][soak]") {
   soak_task("switch", 60);
 }
-TEST_CASE("soak: pour_water: 100k random slot-steps without a fault", "[tasks][table][soak]") {
+TEST_CASE("soak: pour_water: 50k random slot-steps without a fault", "[tasks][table][soak]") {
   soak_task("pour_water", 60);
 }
