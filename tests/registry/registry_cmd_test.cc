@@ -239,6 +239,7 @@ TEST_CASE("bidex registry report age: the table and one plotted point per normal
           "in age order", "[registry][apps]") {
   RegTempDir dir;
   GroundTruthOnly references(dir);  // the random scores are set here
+  TimeToGoalWithOneNotMet sweep(dir, "re_orientation");  // the legend of a goal not met
   const std::string path = dir.file("sub/r.sqlite");
   int64_t suite_run = 0;
   {
