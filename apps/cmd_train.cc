@@ -158,10 +158,8 @@ class RunRecorder {
     rec_.status = status;
     rec_.finished.clear();  // the registry writes the end time
     std::vector<registry::TaskScore> scores;
-    if (r && !foreign_.empty()) {
-      rec_.steps = r->steps;  // its returns are on another reward than the references'
-    } else if (r) {
-      rec_.steps = r->steps;
+    if (r) rec_.steps = r->steps;
+    if (r && foreign_.empty()) {  // a run under a foreign YAML: returns on another reward
       if (std::isfinite(r->last_return)) rec_.final_return = r->last_return;
       if (std::isfinite(r->last_success)) rec_.final_success = r->last_success;
       for (auto& e : r->scores) {
