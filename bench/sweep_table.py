@@ -36,20 +36,27 @@ def fmt(v, digits=1):
 SWEEP_SLOTS = 16384
 
 
-def slots(t):
-    """the run's slot count, from the config.yaml its folder keeps (the sweep's where absent)"""
+def run_env(t):
+    """the env section of the config.yaml the run's folder keeps ({} where absent)"""
     path = os.path.join(t["dir"], t["run"], "config.yaml")
     if not os.path.exists(path):
-        return SWEEP_SLOTS
-    return int(((yaml.safe_load(open(path)) or {}).get("env") or {}).get("slots", SWEEP_SLOTS))
+        return {}
+    return (yaml.safe_load(open(path)) or {}).get("env") or {}
+
+
+def slots(t):
+    """the run's slot count (the sweep's where its folder keeps no config.yaml)"""
+    return int(run_env(t).get("slots", SWEEP_SLOTS))
 
 
 def label(t):
     """the task, the task YAML and training overrides of bench/sweep/ that the run used, and its
     slots where they are its own (the task's section of configs/train/ppo.yaml)"""
-    overrides = t.get("overrides") or []
+    # the sweep's task YAML, else the training YAML of the task's section (a training aid such as
+    # re_orientation's) that the run's config.yaml names
+    files = [f for f in [t.get("task_config") or run_env(t).get("task_config")] if f]
     # a list of every overrides file; a string in sweep.json files collected before it was one
-    files = [t["task_config"]] if t.get("task_config") else []
+    overrides = t.get("overrides") or []
     files += [overrides] if isinstance(overrides, str) else overrides
     names = [os.path.splitext(os.path.basename(f))[0] for f in files]
     if not t.get("overrides") and slots(t) != SWEEP_SLOTS:
