@@ -271,6 +271,14 @@ build)
   ;;
 start)
   seconds=${1:?SECONDS}; shift
+  # every lane runs bidex from this tree's build: refuse at once without it (a lease's start from
+  # the device call's copy of the tree, which holds no build, had its lane end on the missing
+  # binary only in lanes.log; bench/results/sweep-h200x2/lease24/lease.txt)
+  if (($# > 0)) && [[ ! -x $bidex ]]; then
+    echo "sweep_run: start: no bidex binary at $bidex (BIDEX_GPU_BUILD=$build in $(pwd)):" \
+         "build it first (bench/sweep_run.sh build), or call start in the tree that holds the build" >&2
+    exit 1
+  fi
   deadline=$(($(date +%s) + seconds))
   echo "$deadline" >"$out/deadline"
   [[ -z ${BIDEX_COMMIT:-} ]] || echo "$BIDEX_COMMIT" >"$out/commit"

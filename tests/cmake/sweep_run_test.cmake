@@ -3,6 +3,7 @@
 #   minute, and at its time limit when lanes still run, saying how many are done;
 # - the commit in collect's sweep.json: the BIDEX_COMMIT that start was given, when collect runs
 #   in a later call without it, and collect's own when it has one;
+# - start refuses lanes when the tree has no bidex build;
 # - the physics' load in collect's sweep.json: sim_fps, efc_rows and solver_iters early and late.
 # Run by ctest (tests/CMakeLists.txt):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -P sweep_run_test.cmake
@@ -76,6 +77,14 @@ foreach(bad 5 1.5 x)
   run_script(reserve_${bad} FALSE ${CMAKE_COMMAND} -E env SWEEP_RESERVE=${bad} SWEEP_RUNS=${WORK}/runs bash "${sweep}" start "${WORK}/c3" 5)
   expect_text(reserve_${bad} "SWEEP_RESERVE must be a whole number of seconds, at least 10, not '${bad}'")
 endforeach()
+# a lane needs this tree's bidex: without it start refuses at once, naming the binary, and starts
+# no lane (a lease's start from a tree without the build ran its lane into the missing binary)
+run_script(start_nobuild FALSE ${CMAKE_COMMAND} -E env BIDEX_GPU_BUILD=${WORK}/no-build SWEEP_RUNS=${WORK}/runs bash "${sweep}" start "${WORK}/c4" 5 0=hand_over)
+expect_text(start_nobuild "start: no bidex binary at ${WORK}/no-build/apps/bidex"
+            "build it first (bench/sweep_run.sh build)")
+if(EXISTS "${WORK}/c4/lanes" OR EXISTS "${WORK}/c4/deadline")
+  message(SEND_ERROR "start without a build wrote ${WORK}/c4/lanes or deadline: it started lanes")
+endif()
 file(WRITE "${WORK}/c/lanes" "hand_over\n")
 function(collected_commit name expected)
   run_script(${name} TRUE ${ARGN} SWEEP_RUNS=${WORK}/runs bash "${sweep}" collect "${WORK}/c")
