@@ -448,11 +448,22 @@ int WarpBackend::max_rows() const {
 std::string WarpBackend::room_advice() const {
   const int64_t n = total_overflows();
   if (n == 0) return "";
-  return std::to_string(n) + " steps of worlds overflowed their room on the GPU (" +
-         std::to_string(options_.njmax) + " constraint rows, " + std::to_string(options_.nconmax) +
-         " contacts per world; up to " + std::to_string(max_rows()) +
-         " rows were needed; each was reset): raise gpu.njmax or gpu.nconmax in the physics "
-         "YAML (configs/sim/physics.yaml, or the task's scene)";
+  uint32_t seen = 0;
+  for (uint32_t bits : download_as<uint32_t>("overflow_seen")) seen |= bits;
+  std::string kinds, keys;
+  const auto add = [](std::string& list, const char* item) {
+    list.append(list.empty() ? "" : " and ").append(item);
+  };
+  if (seen & kOverflowRows) add(kinds, "constraint rows");
+  if (seen & kOverflowContacts) add(kinds, "contacts");
+  if (seen & kOverflowOther) add(kinds, "other buffers");
+  if (seen & (kOverflowRows | kOverflowOther)) add(keys, "gpu.njmax");
+  if (seen & (kOverflowContacts | kOverflowOther)) add(keys, "gpu.nconmax");
+  return std::to_string(n) + " steps of worlds overflowed their room on the GPU (" + kinds +
+         "; the room: " + std::to_string(options_.njmax) + " constraint rows, " +
+         std::to_string(options_.nconmax) + " contacts per world; up to " +
+         std::to_string(max_rows()) + " rows were needed; each was reset): raise " + keys +
+         " in the physics YAML (configs/sim/physics.yaml, or the task's scene)";
 }
 
 }  // namespace bidex::sim

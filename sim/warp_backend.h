@@ -34,6 +34,14 @@ struct WarpOptions {
   bool sensors_every_substep = false;
 };
 
+// The kinds of room a world can run out of (bits of the overflow_seen array; sim/warp_bridge.py
+// maps MuJoCo Warp's overflow word onto them), each widened by one physics setting.
+enum OverflowKind : uint32_t {
+  kOverflowRows = 1u << 0,      // constraint rows: gpu.njmax
+  kOverflowContacts = 1u << 1,  // contacts and collision pairs: gpu.nconmax
+  kOverflowOther = 1u << 2,     // another of MuJoCo Warp's buffers
+};
+
 // One world-major array: `rows` worlds of `width` values (float32, or the named integer type).
 struct WorldArray {
   uintptr_t ptr = 0;  // device address (host address on Warp's CPU device)
@@ -77,7 +85,8 @@ class WarpBackend {
   // Named world-major arrays: qpos, qvel, ctrl, qfrc_actuator, qfrc_constraint, sensordata, xpos,
   // xquat, cvel, subtree_com, mocap_pos, mocap_quat, xfrc_applied, time (float32); base_wrench
   // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_seen (uint32:
-  // every FaultBit the world has met), fault_count and overflow_count (int64 per world), rows_max (int32: the most constraint rows the world has
+  // every FaultBit the world has met), fault_count and overflow_count (int64 per world),
+  // overflow_seen (uint32: every OverflowKind the world has met), rows_max (int32: the most constraint rows the world has
   // needed at the end of a step), efc_rows and solver_iters (int64 per world: its constraint rows
   // and its solver's iterations at the end of each control step, summed, as SimBatch sums them),
   // reset (int32: 1 marks a world for the next reset).
@@ -132,8 +141,9 @@ class WarpBackend {
   // The most constraint rows any world has needed since construction (copies one array): the
   // use of the room `options().njmax`.
   int max_rows() const;
-  // Empty when no world overflowed its room; else a line saying how many overflows there were
-  // and which physics settings to raise (gpu.njmax, gpu.nconmax).
+  // Empty when no world overflowed its room; else a line saying how many overflows there were,
+  // of which kinds (OverflowKind), and which physics settings to raise (gpu.njmax for constraint
+  // rows, gpu.nconmax for contacts).
   std::string room_advice() const;
   // Bytes Warp holds on the device (0 on the CPU device).
   size_t device_bytes() const;

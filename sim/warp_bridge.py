@@ -29,6 +29,13 @@ FAULT_OVERFLOW = 1 << 5
 # the CPU path without a warning, so neither path faults it.
 ROOM_OVERFLOWS = int(mjw.OverflowType.ALL) & ~int(
   mjw.OverflowType.ITERATIONS | mjw.OverflowType.LS_ITERATIONS)
+# bidex's kinds of room overflow (sim/warp_backend.h OverflowKind), each the setting that widens
+# it: constraint rows (gpu.njmax), contacts and collision pairs (gpu.nconmax), the rest
+OVERFLOW_ROWS = 1 << 0
+OVERFLOW_CONTACTS = 1 << 1
+OVERFLOW_OTHER = 1 << 2
+ROWS_OVERFLOWS = int(mjw.OverflowType.NEFC | mjw.OverflowType.NJMAX_NNZ)
+CONTACT_OVERFLOWS = int(mjw.OverflowType.BROADPHASE | mjw.OverflowType.NARROWPHASE)
 
 
 @wp.kernel
@@ -65,6 +72,7 @@ def _check(
   fault_count: wp.array(dtype=wp.int64),
   fault_seen: wp.array(dtype=wp.uint32),
   overflow_count: wp.array(dtype=wp.int64),
+  overflow_seen: wp.array(dtype=wp.uint32),
   rows_max: wp.array(dtype=wp.int32),
   solver_niter: wp.array(dtype=int),
   efc_rows: wp.array(dtype=wp.int64),
@@ -94,9 +102,18 @@ def _check(
       bits = bits | wp.uint32(FAULT_NONFINITE)
     elif wp.abs(v) > max_speed:
       bits = bits | wp.uint32(FAULT_EXPLODED)
-  if (overflow[w] & ROOM_OVERFLOWS) != 0:
+  room = overflow[w] & ROOM_OVERFLOWS
+  if room != 0:
     bits = bits | wp.uint32(FAULT_OVERFLOW)
     overflow_count[w] = overflow_count[w] + wp.int64(1)
+    kinds = wp.uint32(0)
+    if (room & ROWS_OVERFLOWS) != 0:
+      kinds = kinds | wp.uint32(OVERFLOW_ROWS)
+    if (room & CONTACT_OVERFLOWS) != 0:
+      kinds = kinds | wp.uint32(OVERFLOW_CONTACTS)
+    if (room & ~(ROWS_OVERFLOWS | CONTACT_OVERFLOWS)) != 0:
+      kinds = kinds | wp.uint32(OVERFLOW_OTHER)
+    overflow_seen[w] = overflow_seen[w] | kinds
   overflow[w] = 0
   fault[w] = bits
   if bits != wp.uint32(0):
@@ -324,6 +341,7 @@ class Bridge:
       self.fault_count = wp.zeros(nworld, dtype=wp.int64)
       self.fault_seen = wp.zeros(nworld, dtype=wp.uint32)  # every kind a world has met
       self.overflow_count = wp.zeros(nworld, dtype=wp.int64)
+      self.overflow_seen = wp.zeros(nworld, dtype=wp.uint32)  # every OVERFLOW_* kind met
       self.rows_max = wp.zeros(nworld, dtype=wp.int32)
       self.efc_rows = wp.zeros(nworld, dtype=wp.int64)
       self.solver_iters = wp.zeros(nworld, dtype=wp.int64)
@@ -371,7 +389,7 @@ class Bridge:
     wp.launch(_check, dim=self.nworld,
               inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
                       d.nefc, self.fault, self.fault_count, self.fault_seen, self.overflow_count,
-                      self.rows_max, d.solver_niter, self.efc_rows, self.solver_iters,
+                      self.overflow_seen, self.rows_max, d.solver_niter, self.efc_rows, self.solver_iters,
                       self.reset_mask])
 
   def _step_without_sensors(self):
@@ -529,7 +547,8 @@ class Bridge:
       "mocap_quat": d.mocap_quat, "xfrc_applied": d.xfrc_applied, "time": d.time,
       "base_wrench": self.base_wrench, "fault": self.fault, "fault_count": self.fault_count,
       "fault_seen": self.fault_seen,
-      "overflow_count": self.overflow_count, "rows_max": self.rows_max, "efc_rows": self.efc_rows,
+      "overflow_count": self.overflow_count, "overflow_seen": self.overflow_seen,
+      "rows_max": self.rows_max, "efc_rows": self.efc_rows,
       "solver_iters": self.solver_iters, "reset": self.reset_mask,
     }
     out = {}

@@ -198,10 +198,14 @@ TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") 
   // the rows the worlds needed are counted even past the room, and the advice names them
   const int need = w.max_rows();
   CHECK(need > 4);
+  // and which kind of room ran out, and the one setting that widens it
+  CHECK(w.download_as<uint32_t>("overflow_seen") ==
+        std::vector<uint32_t>{kOverflowRows, kOverflowRows});
   CHECK_THAT(w.room_advice(), Catch::Contains("2 steps of worlds overflowed") &&
-                                  Catch::Contains("4 constraint rows") &&
+                                  Catch::Contains("(constraint rows; the room: 4 constraint rows") &&
                                   Catch::Contains("up to " + std::to_string(need) + " rows") &&
-                                  Catch::Contains("raise gpu.njmax or gpu.nconmax"));
+                                  Catch::EndsWith("raise gpu.njmax in the physics YAML "
+                                                  "(configs/sim/physics.yaml, or the task's scene)"));
   // in the scene's own room the same step fits, and its use is counted the same way (the
   // states differ from the overflowed worlds', whose constraints were dropped)
   o.njmax = 0;
@@ -211,6 +215,22 @@ TEST_CASE("WarpBackend flags worlds that run out of constraint rows", "[warp]") 
   CHECK(roomy.max_rows() > 4);
   CHECK(roomy.max_rows() <= roomy.options().njmax);
   CHECK(roomy.room_advice().empty());
+}
+
+TEST_CASE("WarpBackend names contacts as the room that ran out when they overflow", "[warp]") {
+  // block_stack's blocks rest on the table from the first step: more contacts than one a world
+  const auto scene = task_scene("block_stack");
+  WarpOptions o = cpu_options();
+  o.nconmax = 1;
+  WarpBackend w(*scene, 2, o);
+  w.step();
+  CHECK(w.total_overflows() == 2);
+  CHECK(w.download_as<uint32_t>("overflow_seen") ==
+        std::vector<uint32_t>{kOverflowContacts, kOverflowContacts});
+  CHECK_THAT(w.room_advice(), Catch::Contains("(contacts; the room: ") &&
+                                  Catch::Contains(", 1 contacts per world;") &&
+                                  Catch::Contains("raise gpu.nconmax in the physics YAML"));
+  CHECK_THAT(w.room_advice(), !Catch::Contains("gpu.njmax"));
 }
 
 TEST_CASE("WarpBackend does not fault a world whose solver stops at its iteration cap",
