@@ -49,6 +49,14 @@ def default_training(task):
     return (slots, (t.get("ppo") or {}).get("minibatches", 4)) if slots else (16384, 16)
 
 
+def names_yaml(config, want):
+    """whether a run's task YAML path names `want` (a path from the source root, where this runs):
+    the same path once normalised ('./', 'a/../'), or an absolute path ending in it (a run started
+    from another checkout, or with the path spelled out)"""
+    c, w = os.path.normpath(config), os.path.normpath(want)
+    return c == w or (os.path.isabs(c) and c.endswith(os.sep + w))
+
+
 def is_default(run_dir, task, version):
     cfg = yaml.safe_load(open(os.path.join(run_dir, "config.yaml")))
     info = json.load(open(os.path.join(run_dir, "run.json")))
@@ -64,7 +72,7 @@ def is_default(run_dir, task, version):
     config = cfg["env"].get("task_config") or ""
     aid = (section.get("env") or {}).get("task_config") or ""
     if config or aid:
-        return config in (aid, EQUIVALENT.get(task)) and bool(config)
+        return bool(config) and any(names_yaml(config, w) for w in (aid, EQUIVALENT.get(task)) if w)
     return info.get("task_version") == f"{task}-v{version}"
 
 
@@ -133,8 +141,10 @@ def main():
     ages = {t: info[t]["age"] for t in values}
     xs = [0.5 * (ages[t]["min_months"] + ages[t]["max_months"]) for t in values]
     ys = [v["slot_steps"] if v["slot_steps"] is not None else float("inf") for v in values.values()]
+    rho = spearman(xs, ys)
     print(f"Spearman's rank correlation of human age and slot-steps to the goal over "
-          f"{len(xs)} tasks: {spearman(xs, ys):.3f}")
+          f"{len(xs)} tasks: " + ("undefined (it needs two tasks or more, of different ages and "
+                                   "times)" if rho is None else f"{rho:.3f}"))
 
 
 def ranks(v):
@@ -153,10 +163,15 @@ def ranks(v):
 
 
 def spearman(x, y):
+    """Spearman's rank correlation; None where it is undefined (fewer than two values, or every
+    value of one side tied)"""
+    if len(x) < 2:
+        return None
     rx, ry = ranks(x), ranks(y)
     mx, my = sum(rx) / len(rx), sum(ry) / len(ry)
     cov = sum((a - mx) * (b - my) for a, b in zip(rx, ry))
-    return cov / (sum((a - mx) ** 2 for a in rx) * sum((b - my) ** 2 for b in ry)) ** 0.5
+    var = sum((a - mx) ** 2 for a in rx) * sum((b - my) ** 2 for b in ry)
+    return cov / var ** 0.5 if var > 0 else None
 
 
 if __name__ == "__main__":

@@ -1,6 +1,8 @@
 # The PPO sweep's committed figures are what its scripts make from the committed run folders:
 # - bench/sweep_time_to_goal.py, given the folders its output's header names, writes
-#   configs/registry/time_to_goal.yaml (which the registry loads) byte for byte;
+#   configs/registry/time_to_goal.yaml (which the registry loads) byte for byte; it counts a run
+#   as its task's default however its training YAML's path is spelt, and a folder of one task
+#   gives an undefined rank correlation, said so;
 # - `bidex registry report age` from a new registry (the shipped references and that file) draws
 #   bench/results/sweep-h100x4/age-time-to-goal.svg and .txt byte for byte;
 # - bench/sweep_table.py, given the folders of the command in bench/results/sweep-h100x4/README.md,
@@ -37,6 +39,49 @@ if(NOT rc EQUAL 0)
 endif()
 expect_same_file("sweep_time_to_goal.py's output, against the shipped file" "${ttg}"
                  "${WORK}/time_to_goal.yaml")
+
+# a run counts as its task's default whatever the spelling of its training YAML's path: './x',
+# an absolute path ending in it (a run started from another checkout) as the plain 'x'; another
+# file does not count (re_orientation's run of the twenty-third lease, its config.yaml edited)
+set(reorient "re_orientation-creorient_progress100-ogamma99-ovalue_norm-e-m200")
+foreach(case dot abs other)
+  set(d "${WORK}/spelling-${case}")
+  file(MAKE_DIRECTORY "${d}")
+  file(COPY "${SRC}/bench/results/sweep-h200x2/lease23/sweep.json"
+            "${SRC}/bench/results/sweep-h200x2/lease23/${reorient}" DESTINATION "${d}")
+  file(READ "${d}/${reorient}/config.yaml" cfg)
+  set(path "bench/sweep/reorient_progress100.yaml")
+  if(case STREQUAL "dot")
+    set(spelt "./${path}")
+  elseif(case STREQUAL "abs")
+    set(spelt "/elsewhere/checkout/${path}")
+  else()
+    set(spelt "/elsewhere/checkout/bench/sweep/reorient_progress.yaml")
+  endif()
+  string(REPLACE "task_config: ${path}" "task_config: ${spelt}" edited "${cfg}")
+  if(edited STREQUAL cfg)
+    message(FATAL_ERROR "${d}/${reorient}/config.yaml: no 'task_config: ${path}' to respell")
+  endif()
+  file(WRITE "${d}/${reorient}/config.yaml" "${edited}")
+  execute_process(COMMAND "${PYTHON}" bench/sweep_time_to_goal.py "${d}" --bidex "${BIDEX}"
+                          --out "${d}/time_to_goal.yaml"
+                  WORKING_DIRECTORY "${SRC}" RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
+  if(NOT rc EQUAL 0)
+    message(SEND_ERROR "sweep_time_to_goal.py on ${d}: exit ${rc}:\n${out}${err}")
+  endif()
+  # one task or none: the rank correlation is undefined, and said so (it divided by zero)
+  string(FIND "${out}" "undefined (it needs two tasks or more" undefined)
+  if(undefined EQUAL -1)
+    message(SEND_ERROR "sweep_time_to_goal.py on one folder of one task: no 'undefined' rank "
+                       "correlation in:\n${out}")
+  endif()
+  string(FIND "${out}" "${d}/${reorient}" counted)
+  if(case STREQUAL "other" AND NOT counted EQUAL -1)
+    message(SEND_ERROR "a run trained under ${spelt} counted as re_orientation's default:\n${out}")
+  elseif(NOT case STREQUAL "other" AND counted EQUAL -1)
+    message(SEND_ERROR "a run trained under ${spelt} did not count as re_orientation's default:\n${out}")
+  endif()
+endforeach()
 
 # the age report's figure and table, as the sweep README says they were drawn: from a new registry
 execute_process(COMMAND "${BIDEX}" registry report age --registry "${WORK}/age/r.sqlite"
