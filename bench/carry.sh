@@ -10,6 +10,12 @@
 #   bench/carry.sh in NAME PARTS DIR
 #       checks PARTS/NAME.tar.part* against PARTS/NAME.sha256 (every part must be there) and
 #       unpacks them into DIR
+#   bench/carry.sh recut NAME PARTS SIZE
+#       the parts in PARTS, checked as `in` checks them, cut again into parts of SIZE (split's
+#       sizes: 25M) with a new NAME.sha256: `out`'s parts come back from a device call, at most
+#       16 MiB a file, but go into a later call beside the tracked tree, where larger parts mean
+#       fewer calls (the bundle's part size fits: scripts/offline-build.sh split prints it).
+#       The old parts stay until the new ones are written and checked
 set -uo pipefail
 stage=${1:-}
 if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
@@ -51,8 +57,28 @@ in)
     { echo "carry: unpacking $name into $dir failed" >&2; exit 1; }
   echo "carry: $name unpacked into $dir"
   ;;
+recut)
+  name=${2:?NAME}; parts=$(realpath -m "${3:?PARTS}"); size=${4:?SIZE}
+  [[ -f $parts/$name.sha256 ]] || { echo "carry: no $name.sha256 in $parts" >&2; exit 1; }
+  (cd "$parts" && sha256sum -c --quiet "$name.sha256") ||
+    { echo "carry: the parts in $parts do not match $name.sha256" >&2; exit 1; }
+  new=$parts/.recut-$name old=$parts/.old-$name
+  rm -rf "$new" "$old" && mkdir -p "$new" "$old" || exit 1
+  joined() { (cd "$1" && awk '{print $2}' "$name.sha256" | xargs cat); }
+  joined "$parts" | split -b "$size" -d - "$new/$name.tar.part" ||
+    { echo "carry: cutting $name into parts of $size failed" >&2; rm -rf "$new" "$old"; exit 1; }
+  (cd "$new" && sha256sum "$name".tar.part* >"$name.sha256") || exit 1
+  [[ $(joined "$parts" | sha256sum) == "$(joined "$new" | sha256sum)" ]] ||
+    { echo "carry: the new parts of $name differ from the old" >&2; rm -rf "$new" "$old"; exit 1; }
+  # the old parts aside, the new ones in, the checksum file last
+  (cd "$parts" && awk '{print $2}' "$name.sha256" | xargs mv -t "$old" && mv "$name.sha256" "$old/") &&
+    mv "$new/$name".tar.part* "$parts/" && mv "$new/$name.sha256" "$parts/" ||
+    { echo "carry: replacing the parts of $name failed; the old ones are in $old" >&2; exit 1; }
+  rm -rf "$new" "$old"
+  echo "carry: $name in $(awk 'END {print NR}' "$parts/$name.sha256") parts of at most $size in $parts"
+  ;;
 *)
-  echo "carry: unknown stage $stage (out or in)" >&2
+  echo "carry: unknown stage $stage (out, in or recut)" >&2
   exit 2
   ;;
 esac
