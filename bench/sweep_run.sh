@@ -49,8 +49,8 @@
 #       the folder with its newest checkpoint only, as RUN.tar.partNN of
 #       15 MiB in DEST, parts FIRST.. (default 0), COUNT of them (default all; a device call
 #       brings back at most 64 MiB in at most 8 files: four parts and their .sha256 leave three
-#       files for the rest of $OUT; bench/carry.sh; `bench/carry.sh recut RUN DEST 25M` then cuts
-#       them into fewer parts for the calls that carry them in)
+#       files for the rest of $OUT; bench/carry.sh). `bench/carry.sh recut NAME PARTS 25M` (NAME:
+#       RUN with - for /) then cuts them into fewer parts for the calls that carry them in
 #   bench/sweep_run.sh bring OUTDIR RUN PARTS
 #       the parts of `keep` (in PARTS, all of them) joined back into RUN's run folder, which a
 #       later `start` of RUN resumes
