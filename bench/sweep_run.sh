@@ -150,6 +150,11 @@ lane() {
   local registry=(--no-registry)  # the registry arguments of every train and eval command
   [[ -z $SWEEP_REGISTRY ]] || registry=(--registry "$SWEEP_REGISTRY")
   local spec task seed msteps cfg algo part p dir log left line
+  trained() {  # trained RUN STATUS: a training that failed is said in lanes.log (--wall-limit's
+    # stop exits 130; a lane used to log "done" whatever the exit)
+    (($2 == 0 || $2 == 130)) ||
+      echo "$(date -u +%T) $1: bidex train exited $2 (its progress.log says why)" >>"$out/lanes.log"
+  }
   evaluate() {  # evaluate RUN
     local log="$out/${1//\//-}" yaml episodes=256 split args
     if is_meta "${1%%/*}"; then  # before and after adaptation, on each split
@@ -236,7 +241,8 @@ lane() {
     fi
     echo "bidex ${args[*]}" >>"$log/commands.txt"
     echo "$(date -u +%T) $spec: start on GPU $gpu" >>"$out/lanes.log"
-    "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"  # --wall-limit exits 130
+    "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"
+    trained "$spec" $?
     evaluate "$spec"
     echo "$(date -u +%T) $spec: done" >>"$out/lanes.log"
   done
@@ -261,6 +267,7 @@ lane() {
     echo "bidex ${args[*]}  # still rising: extended towards 100M" >>"$log/commands.txt"
     echo "$(date -u +%T) $spec: extend for ${left}s on GPU $gpu" >>"$out/lanes.log"
     "$bidex" "${args[@]}" >>"$log/train.txt" 2>>"$log/progress.log"
+    trained "$spec" $?
     evaluate "$spec"
     echo "$(date -u +%T) $spec: extended" >>"$out/lanes.log"
   done

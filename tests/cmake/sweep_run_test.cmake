@@ -3,7 +3,8 @@
 #   minute, and at its time limit when lanes still run, saying how many are done;
 # - the commit in collect's sweep.json: the BIDEX_COMMIT that start was given, when collect runs
 #   in a later call without it, and collect's own when it has one;
-# - start refuses lanes when the tree has no bidex build;
+# - start refuses lanes when the tree has no bidex build, and a lane whose training fails logs
+#   the exit status in lanes.log;
 # - the physics' load in collect's sweep.json: sim_fps, efc_rows and solver_iters early and late.
 # Run by ctest (tests/CMakeLists.txt):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -P sweep_run_test.cmake
@@ -84,6 +85,18 @@ expect_text(start_nobuild "start: no bidex binary at ${WORK}/no-build/apps/bidex
             "build it first (bench/sweep_run.sh build)")
 if(EXISTS "${WORK}/c4/lanes" OR EXISTS "${WORK}/c4/deadline")
   message(SEND_ERROR "start without a build wrote ${WORK}/c4/lanes or deadline: it started lanes")
+endif()
+# a lane whose training fails says so in lanes.log with the exit status, beside "done" (a
+# stand-in bidex that fails every command)
+file(MAKE_DIRECTORY "${WORK}/fake-build/apps")
+file(WRITE "${WORK}/fake-build/apps/bidex" "#!/bin/sh\necho \"stand-in bidex: failing\" >&2\nexit 3\n")
+file(CHMOD "${WORK}/fake-build/apps/bidex" PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE)
+run_script(start_failing TRUE ${CMAKE_COMMAND} -E env BIDEX_GPU_BUILD=${WORK}/fake-build SWEEP_RUNS=${WORK}/runs-failing SWEEP_RESERVE=10 bash "${sweep}" start "${WORK}/c5" 100 0=hand_over)
+run_script(failing_wait TRUE bash "${sweep}" wait "${WORK}/c5" 60)
+expect_text(failing_wait "all 1 lanes done")
+file(READ "${WORK}/c5/lanes.log" lanes_log)
+if(NOT lanes_log MATCHES "hand_over: bidex train exited 3 \\(its progress.log says why\\)")
+  message(SEND_ERROR "a failed training is not in lanes.log with its exit status:\n${lanes_log}")
 endif()
 file(WRITE "${WORK}/c/lanes" "hand_over\n")
 function(collected_commit name expected)
