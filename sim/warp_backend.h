@@ -86,10 +86,10 @@ class WarpBackend {
   // xquat, cvel, subtree_com, mocap_pos, mocap_quat, xfrc_applied, time (float32); base_wrench
   // (float32, 6 per free base); fault (uint32 FaultBits of the last step), fault_seen (uint32:
   // every FaultBit the world has met), fault_count and overflow_count (int64 per world),
-  // overflow_seen (uint32: every OverflowKind the world has met), rows_max (int32: the most constraint rows the world has
-  // needed at the end of a step), efc_rows and solver_iters (int64 per world: its constraint rows
-  // and its solver's iterations at the end of each control step, summed, as SimBatch sums them),
-  // reset (int32: 1 marks a world for the next reset).
+  // overflow_seen (uint32: every OverflowKind the world has met), rows_max (int32: the most
+  // constraint rows the world has needed at the end of a step), efc_rows and solver_iters (int64
+  // per world: its constraint rows and its solver's iterations at the end of each control step,
+  // summed, as SimBatch sums them), reset (int32: 1 marks a world for the next reset).
   WorldArray array(const std::string& name) const;
   // Rows [first, first + count) of a named array (one scene's worlds); throws Error outside it.
   WorldArray rows(const std::string& name, int first, int count) const;

@@ -389,8 +389,8 @@ class Bridge:
     wp.launch(_check, dim=self.nworld,
               inputs=[d.ctrl, self.base_wrench, d.qpos, d.qvel, self.max_speed, d.overflow,
                       d.nefc, self.fault, self.fault_count, self.fault_seen, self.overflow_count,
-                      self.overflow_seen, self.rows_max, d.solver_niter, self.efc_rows, self.solver_iters,
-                      self.reset_mask])
+                      self.overflow_seen, self.rows_max, d.solver_niter, self.efc_rows,
+                      self.solver_iters, self.reset_mask])
 
   def _step_without_sensors(self):
     # the option is read when kernels are launched (or captured), so it holds for this call only
