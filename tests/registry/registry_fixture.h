@@ -15,6 +15,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "core/files.h"
+
 namespace bidex::test {
 
 // A fresh folder under /tmp (or $TMPDIR), removed with everything in it at scope end.
@@ -109,39 +111,18 @@ inline const std::vector<std::string>& paper_tasks_by_age() {
   return ids;
 }
 
-// A file of the source tree (`rel` from its root), whole.
-inline std::string read_source_file(const std::string& rel) {
-  const std::string path = std::string(BIDEX_SOURCE_DIR) + "/" + rel;
-  std::FILE* in = std::fopen(path.c_str(), "r");
-  REQUIRE(in != nullptr);
-  std::string text;
-  char buf[4096];
-  size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, in)) > 0) text.append(buf, n);
-  std::fclose(in);
-  return text;
-}
-
-// `text` written to `path`; returns `path`.
-inline std::string write_test_file(const std::string& path, const std::string& text) {
-  std::FILE* out = std::fopen(path.c_str(), "w");
-  REQUIRE(out != nullptr);
-  std::fwrite(text.data(), 1, text.size(), out);
-  std::fclose(out);
-  return path;
-}
-
 // For tests that set every random score themselves: the shipped references.yaml without its
 // measured `random:` section, in `dir`, named by BIDEX_REFERENCES (for this process and the bidex
 // processes it starts) for the life of this object.
 class GroundTruthOnly {
  public:
   explicit GroundTruthOnly(const RegTempDir& dir) {
-    std::string text = read_source_file("configs/registry/references.yaml");
+    std::string text = read_file(BIDEX_SOURCE_DIR "/configs/registry/references.yaml");
     const size_t cut = text.find("\nrandom:");
     REQUIRE(cut != std::string::npos);
     text.resize(cut + 1);
-    const std::string path = write_test_file(dir.file("ground_truth_only.yaml"), text);
+    const std::string path = dir.file("ground_truth_only.yaml");
+    write_file_atomic(path, text);
     ::setenv("BIDEX_REFERENCES", path.c_str(), 1);
   }
   ~GroundTruthOnly() { ::unsetenv("BIDEX_REFERENCES"); }
@@ -156,7 +137,7 @@ class GroundTruthOnly {
 class TimeToGoalWithOneNotMet {
  public:
   TimeToGoalWithOneNotMet(const RegTempDir& dir, const std::string& task) {
-    std::string text = read_source_file("configs/registry/time_to_goal.yaml");
+    std::string text = read_file(BIDEX_SOURCE_DIR "/configs/registry/time_to_goal.yaml");
     std::string key = "\n  ";
     key.append(task).append(":\n");
     const size_t at = text.find(key);
@@ -176,7 +157,8 @@ class TimeToGoalWithOneNotMet {
     set("slot_steps", "null");
     set("wall_s", "null");
     text.replace(body, end - body, entry);
-    const std::string path = write_test_file(dir.file("time_to_goal_one_not_met.yaml"), text);
+    const std::string path = dir.file("time_to_goal_one_not_met.yaml");
+    write_file_atomic(path, text);
     ::setenv("BIDEX_TIME_TO_GOAL", path.c_str(), 1);
   }
   ~TimeToGoalWithOneNotMet() { ::unsetenv("BIDEX_TIME_TO_GOAL"); }
