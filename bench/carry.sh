@@ -22,6 +22,15 @@ if [[ -z "$stage" || "$stage" == -h || "$stage" == --help ]]; then
   sed -n '2,/^[^#]/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'
   exit 0
 fi
+# checked NAME PARTS: exits unless PARTS holds NAME.sha256 and every part it lists, unchanged
+checked() {
+  [[ -f $2/$1.sha256 ]] || { echo "carry: no $1.sha256 in $2" >&2; exit 1; }
+  (cd "$2" && sha256sum -c --quiet "$1.sha256") ||
+    { echo "carry: the parts in $2 do not match $1.sha256" >&2; exit 1; }
+}
+# joined NAME PARTS: the parts NAME.sha256 lists, in its order (not whatever else matches the
+# name), as one stream
+joined() { (cd "$2" && awk '{print $2}' "$1.sha256" | xargs cat); }
 case "$stage" in
 out)
   name=${2:?NAME}; dir=${3:?DIR}; work=$(realpath -m "${4:?WORK}"); dest=$(realpath -m "${5:?DEST}")
@@ -48,27 +57,21 @@ out)
   ;;
 in)
   name=${2:?NAME}; parts=$(realpath -m "${3:?PARTS}"); dir=$(realpath -m "${4:?DIR}")
-  [[ -f $parts/$name.sha256 ]] || { echo "carry: no $name.sha256 in $parts" >&2; exit 1; }
-  (cd "$parts" && sha256sum -c --quiet "$name.sha256") ||
-    { echo "carry: the parts in $parts do not match $name.sha256" >&2; exit 1; }
+  checked "$name" "$parts"
   mkdir -p "$dir"
-  # the parts the checksum file lists, in its order (not whatever else matches the name)
-  (cd "$parts" && awk '{print $2}' "$name.sha256" | xargs cat) | tar -C "$dir" -xf - ||
+  joined "$name" "$parts" | tar -C "$dir" -xf - ||
     { echo "carry: unpacking $name into $dir failed" >&2; exit 1; }
   echo "carry: $name unpacked into $dir"
   ;;
 recut)
   name=${2:?NAME}; parts=$(realpath -m "${3:?PARTS}"); size=${4:?SIZE}
-  [[ -f $parts/$name.sha256 ]] || { echo "carry: no $name.sha256 in $parts" >&2; exit 1; }
-  (cd "$parts" && sha256sum -c --quiet "$name.sha256") ||
-    { echo "carry: the parts in $parts do not match $name.sha256" >&2; exit 1; }
+  checked "$name" "$parts"
   new=$parts/.recut-$name old=$parts/.old-$name
   rm -rf "$new" "$old" && mkdir -p "$new" "$old" || exit 1
-  joined() { (cd "$1" && awk '{print $2}' "$name.sha256" | xargs cat); }
-  joined "$parts" | split -b "$size" -d - "$new/$name.tar.part" ||
+  joined "$name" "$parts" | split -b "$size" -d - "$new/$name.tar.part" ||
     { echo "carry: cutting $name into parts of $size failed" >&2; rm -rf "$new" "$old"; exit 1; }
   (cd "$new" && sha256sum "$name".tar.part* >"$name.sha256") || exit 1
-  [[ $(joined "$parts" | sha256sum) == "$(joined "$new" | sha256sum)" ]] ||
+  [[ $(joined "$name" "$parts" | sha256sum) == "$(joined "$name" "$new" | sha256sum)" ]] ||
     { echo "carry: the new parts of $name differ from the old" >&2; rm -rf "$new" "$old"; exit 1; }
   # the old parts aside, the new ones in, the checksum file last
   (cd "$parts" && awk '{print $2}' "$name.sha256" | xargs mv -t "$old" && mv "$name.sha256" "$old/") &&
