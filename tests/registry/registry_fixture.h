@@ -111,32 +111,51 @@ inline const std::vector<std::string>& paper_tasks_by_age() {
   return ids;
 }
 
-// For tests that set every random score themselves: the shipped references.yaml without its
-// measured `random:` section, in `dir`, named by BIDEX_REFERENCES (for this process and the bidex
-// processes it starts) for the life of this object.
-class GroundTruthOnly {
+// A file written into a test folder and named by the environment variable `var` (for this
+// process and the bidex processes it starts) for the life of this object.
+class ScopedFileEnv {
  public:
-  explicit GroundTruthOnly(const RegTempDir& dir) {
+  ScopedFileEnv(const char* var, const std::string& path, const std::string& text) : var_(var) {
+    write_file_atomic(path, text);
+    ::setenv(var_, path.c_str(), 1);
+  }
+  ~ScopedFileEnv() { ::unsetenv(var_); }
+  ScopedFileEnv(const ScopedFileEnv&) = delete;
+  ScopedFileEnv& operator=(const ScopedFileEnv&) = delete;
+
+ private:
+  const char* var_;
+};
+
+// For tests that set every random score themselves: the shipped references.yaml without its
+// measured `random:` section, in `dir`, named by BIDEX_REFERENCES.
+class GroundTruthOnly : ScopedFileEnv {
+ public:
+  explicit GroundTruthOnly(const RegTempDir& dir)
+      : ScopedFileEnv("BIDEX_REFERENCES", dir.file("ground_truth_only.yaml"), text()) {}
+
+ private:
+  static std::string text() {
     std::string text = read_file(BIDEX_SOURCE_DIR "/configs/registry/references.yaml");
     const size_t cut = text.find("\nrandom:");
     REQUIRE(cut != std::string::npos);
     text.resize(cut + 1);
-    const std::string path = dir.file("ground_truth_only.yaml");
-    write_file_atomic(path, text);
-    ::setenv("BIDEX_REFERENCES", path.c_str(), 1);
+    return text;
   }
-  ~GroundTruthOnly() { ::unsetenv("BIDEX_REFERENCES"); }
-  GroundTruthOnly(const GroundTruthOnly&) = delete;
-  GroundTruthOnly& operator=(const GroundTruthOnly&) = delete;
 };
 
 // The shipped configs/registry/time_to_goal.yaml with one task's entry as a run that did not meet
 // its goal (trained 50,069,504 slot-steps), loaded in its place ($BIDEX_TIME_TO_GOAL) while
 // alive: every task of the shipped file has met its goal since the twenty-third lease, and the
 // report's path for one that has not still needs a row.
-class TimeToGoalWithOneNotMet {
+class TimeToGoalWithOneNotMet : ScopedFileEnv {
  public:
-  TimeToGoalWithOneNotMet(const RegTempDir& dir, const std::string& task) {
+  TimeToGoalWithOneNotMet(const RegTempDir& dir, const std::string& task)
+      : ScopedFileEnv("BIDEX_TIME_TO_GOAL", dir.file("time_to_goal_one_not_met.yaml"),
+                      text(task)) {}
+
+ private:
+  static std::string text(const std::string& task) {
     std::string text = read_file(BIDEX_SOURCE_DIR "/configs/registry/time_to_goal.yaml");
     std::string key = "\n  ";
     key.append(task).append(":\n");
@@ -157,13 +176,8 @@ class TimeToGoalWithOneNotMet {
     set("slot_steps", "null");
     set("wall_s", "null");
     text.replace(body, end - body, entry);
-    const std::string path = dir.file("time_to_goal_one_not_met.yaml");
-    write_file_atomic(path, text);
-    ::setenv("BIDEX_TIME_TO_GOAL", path.c_str(), 1);
+    return text;
   }
-  ~TimeToGoalWithOneNotMet() { ::unsetenv("BIDEX_TIME_TO_GOAL"); }
-  TimeToGoalWithOneNotMet(const TimeToGoalWithOneNotMet&) = delete;
-  TimeToGoalWithOneNotMet& operator=(const TimeToGoalWithOneNotMet&) = delete;
 };
 
 inline bool has_text(const std::string& s, const std::string& what) {
