@@ -25,8 +25,8 @@
 #       slot-steps (default 50M), then the final policy's mean action over 256 episodes on the
 #       CPU path (under the task's own YAML when NAME.yaml turns a curriculum on). Once every
 #       lane of its GPU is through its runs, a lane that has time left resumes, towards 100M,
-#       its runs whose return or success still rose over their last 10M slot-steps, and
-#       evaluates them again. Every run stops training $SWEEP_RESERVE s (default 240) before
+#       its runs of fewer slot-steps whose return or success still rose over their last 10M
+#       slot-steps, and evaluates them again. Every run stops training $SWEEP_RESERVE s (default 240) before
 #       the deadline, SECONDS after this call, whatever it has reached, and is evaluated by the
 #       deadline (a suite's run: $SWEEP_SUITE_RESERVE, below). start prints both times.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
@@ -123,6 +123,12 @@ sys.exit(0 if "slots" in (t.get("env") or {}) else 1)' "$1"
 
 # still_rising RUN_DIR: exit 0 when the run still rises (bench/sweep_collect.py's rule)
 still_rising() { python3 bench/sweep_collect.py --rising "$1/metrics.csv"; }
+# run_steps DIR: the slot-steps the run trains to (train.steps of its config.yaml; 0 without one)
+run_steps() {
+  local n
+  n=$(sed -n 's/^  steps: *\([0-9][0-9]*\).*/\1/p' "$1/config.yaml" 2>/dev/null | head -n 1)
+  echo "${n:-0}"
+}
 
 # eval_yaml RUN: the task's own YAML when the run's bench/sweep/NAME.yaml (cNAME) turns a
 # curriculum on, so that its evaluation plays the task itself; else nothing (the run's own YAML)
@@ -254,6 +260,10 @@ lane() {
   local rising=()
   for spec in "$@"; do  # a suite's run is not extended: its length is its own (e.g. MT20's 300M)
     is_suite "${spec%%/*}" && continue
+    # nor is one whose own length is 100M or more: it has reached it, and the extension once
+    # resumed such runs for nothing, evaluated them again and wrote 100M over an m200 run's
+    # length in its config.yaml (bench/results/sweep-h200x2/lease25/README.md)
+    (($(run_steps "$(run_dir "$spec")") < 100000000)) || continue
     still_rising "$(run_dir "$spec")" && rising+=("$spec")
   done
   local n=${#rising[@]} i=0
@@ -297,7 +307,7 @@ start)
     gpu=${spec%%=*}
     IFS=, read -ra list <<<"${spec#*=}"
     echo "${list[*]}" >>"$out/lanes"
-    export -f lane run_dir still_rising own_slots eval_yaml is_suite is_meta
+    export -f lane run_dir still_rising run_steps own_slots eval_yaml is_suite is_meta
     export out runs steps slots device bidex reserve suite_slots suite_episodes suite_reserve \
       meta_episodes meta_adapt
     export SWEEP_REGISTRY=${SWEEP_REGISTRY:-}
@@ -318,7 +328,12 @@ wait)
     for spec in $(cat "$out/lanes"); do
       m=$(run_dir "$spec")/metrics.csv
       [[ -f $m ]] || continue
-      tail -n 1 "$m" | awk -F, -v s="$spec" '{printf "  %-22s %6.1fM  return %s  success %s  fps %.0f\n", s, $2 / 1e6, $7, $9, $4}'
+      # its last update, its columns found by the header's names (the physics' load columns
+      # added later shifted fixed positions: return showed solver_iters and success the return)
+      { head -n 1 "$m"; tail -n 1 "$m"; } | awk -F, -v s="$spec" '
+        NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
+        function v(k) { return (k in col && $col[k] != "") ? $col[k] : "-" }
+        { printf "  %-22s %6.1fM  return %s  success %s  fps %.0f\n", s, $col["steps"] / 1e6, v("return"), v("success"), $col["fps"] }'
     done
     ((done_n >= total)) && { echo "all $total lanes done"; break; }
     (($(date +%s) >= limit)) && { echo "$done_n of $total lanes done"; break; }

@@ -5,6 +5,8 @@
 #   in a later call without it, and collect's own when it has one;
 # - start refuses lanes when the tree has no bidex build, and a lane whose training fails logs
 #   the exit status in lanes.log;
+# - wait's report of each run's last update, its columns by name;
+# - the extension towards 100M leaves a run of 100M or more that has reached its length alone;
 # - the physics' load in collect's sweep.json: sim_fps, efc_rows and solver_iters early and late.
 # Run by ctest (tests/CMakeLists.txt):
 #   cmake -DSRC=<source> -DWORK=<scratch folder> -P sweep_run_test.cmake
@@ -97,6 +99,55 @@ expect_text(failing_wait "all 1 lanes done")
 file(READ "${WORK}/c5/lanes.log" lanes_log)
 if(NOT lanes_log MATCHES "hand_over: bidex train exited 3 \\(its progress.log says why\\)")
   message(SEND_ERROR "a failed training is not in lanes.log with its exit status:\n${lanes_log}")
+endif()
+# the extension resumes a finished run that still rises towards 100M only when it is shorter:
+# an m200 run that reached its 200M is neither resumed nor has its length rewritten (the
+# twenty-fifth lease resumed one for nothing and wrote 100M into its config.yaml). A stand-in
+# bidex whose training writes the run's config.yaml and a rising metrics.csv at once
+file(MAKE_DIRECTORY "${WORK}/rising-build/apps")
+file(WRITE "${WORK}/rising-build/apps/bidex" [=[#!/bin/bash
+# train --run DIR ... -o train.steps=N: config.yaml and metrics.csv, return rising to N
+# train --resume DIR: noted in DIR/resumed; eval: nothing
+[[ $1 == train ]] || exit 0
+dir= steps=
+while (($#)); do
+  case $1 in
+    --run) dir=$2; shift ;;
+    --resume) echo "$*" >>"$2/resumed"; exit 0 ;;
+    train.steps=*) steps=${1#train.steps=} ;;
+  esac
+  shift
+done
+mkdir -p "$dir"
+printf 'task: x\ntrain:\n  steps: %s\n  save_interval: 50\n' "$steps" >"$dir/config.yaml"
+{ echo update,steps,wall_s,fps,sim_fps,efc_rows,solver_iters,episodes,return,length,success
+  for ((u = 1; u <= 40; u++)); do
+    echo "$u,$((u * steps / 40)),$u,1,1,1,1,10,$((u * 10)),75,0"
+  done; } >"$dir/metrics.csv"
+]=])
+file(CHMOD "${WORK}/rising-build/apps/bidex" PERMISSIONS OWNER_READ OWNER_WRITE OWNER_EXECUTE)
+run_script(start_rising TRUE ${CMAKE_COMMAND} -E env BIDEX_GPU_BUILD=${WORK}/rising-build SWEEP_RUNS=${WORK}/runs-rising SWEEP_RESERVE=10 bash "${sweep}" start "${WORK}/c6" 200 0=hand_over/m200,catch_underarm)
+run_script(rising_wait TRUE ${CMAKE_COMMAND} -E env SWEEP_RUNS=${WORK}/runs-rising bash "${sweep}" wait "${WORK}/c6" 60)
+expect_text(rising_wait "all 1 lanes done")
+# wait's report of a run's last update names its columns right (return and success are found
+# by the header's names: they once showed solver_iters and the return)
+if(NOT out_rising_wait MATCHES "catch_underarm +50.0M  return 400  success 0  fps 1\n")
+  message(SEND_ERROR "wait's report of catch_underarm's last update (50.0M, return 400, success 0, fps 1):\n${out_rising_wait}")
+endif()
+file(READ "${WORK}/c6/lanes.log" lanes_log)
+if(NOT lanes_log MATCHES "catch_underarm: extend for" OR lanes_log MATCHES "hand_over/m200: extend")
+  message(SEND_ERROR "the extension should resume catch_underarm (50M, rising) and not hand_over/m200 (200M reached):\n${lanes_log}")
+endif()
+foreach(run_steps "hand_over-m200;200000000" "catch_underarm;100000000")
+  list(GET run_steps 0 run)
+  list(GET run_steps 1 want)
+  file(STRINGS "${WORK}/runs-rising/${run}/config.yaml" length REGEX "steps: ")
+  if(NOT length MATCHES "^ *steps: ${want}$")
+    message(SEND_ERROR "${run}'s config.yaml after the extension: '${length}', expected 'steps: ${want}'")
+  endif()
+endforeach()
+if(EXISTS "${WORK}/runs-rising/hand_over-m200/resumed")
+  message(SEND_ERROR "hand_over/m200 was resumed after reaching its 200M")
 endif()
 file(WRITE "${WORK}/c/lanes" "hand_over\n")
 function(collected_commit name expected)
