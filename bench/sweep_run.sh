@@ -26,9 +26,10 @@
 #       CPU path (under the task's own YAML when NAME.yaml turns a curriculum on). Once every
 #       lane of its GPU is through its runs, a lane that has time left resumes, towards 100M,
 #       its runs of fewer slot-steps whose return or success still rose over their last 10M
-#       slot-steps, and evaluates them again. Every run stops training $SWEEP_RESERVE s (default 240) before
-#       the deadline, SECONDS after this call, whatever it has reached, and is evaluated by the
-#       deadline (a suite's run: $SWEEP_SUITE_RESERVE, below). start prints both times.
+#       slot-steps, and evaluates them again. Every run stops training $SWEEP_RESERVE s
+#       (default 240) before the deadline, SECONDS after this call, whatever it has reached,
+#       and is evaluated by the deadline (a suite's run: $SWEEP_SUITE_RESERVE, below). start
+#       prints both times.
 #   bench/sweep_run.sh wait OUTDIR SECONDS
 #       waits up to SECONDS for the lanes, printing each run's slot-steps and return each minute;
 #       returns as soon as every lane is done (its last line: "all N lanes done")
