@@ -31,6 +31,10 @@ checked() {
 # joined NAME PARTS: the parts NAME.sha256 lists, in its order (not whatever else matches the
 # name), as one stream
 joined() { (cd "$2" && awk '{print $2}' "$1.sha256" | xargs cat); }
+# cut_parts NAME DIR SIZE: standard input as DIR/NAME.tar.partNN of SIZE and their DIR/NAME.sha256
+cut_parts() {
+  split -b "$3" -d - "$2/$1.tar.part" && (cd "$2" && sha256sum "$1".tar.part* >"$1.sha256")
+}
 case "$stage" in
 out)
   name=${2:?NAME}; dir=${3:?DIR}; work=$(realpath -m "${4:?WORK}"); dest=$(realpath -m "${5:?DEST}")
@@ -44,9 +48,8 @@ out)
     mkdir -p "$work"
     rm -f "$work/$name".tar.part* "$work/$name.sha256"
     if [[ $# -gt 0 ]]; then tar -C "$dir" -cf - -- "$@"; else tar -C "$dir" -cf - .; fi |
-      split -b "${CARRY_PART_SIZE:-15M}" -d - "$work/$name.tar.part" ||
+      cut_parts "$name" "$work" "${CARRY_PART_SIZE:-15M}" ||
       { echo "carry: packing $dir failed" >&2; exit 1; }
-    (cd "$work" && sha256sum "$name".tar.part* >"$name.sha256") || exit 1
     touch "$work/$name.done"
   fi
   mkdir -p "$dest"
@@ -68,9 +71,8 @@ recut)
   checked "$name" "$parts"
   new=$parts/.recut-$name old=$parts/.old-$name
   rm -rf "$new" "$old" && mkdir -p "$new" "$old" || exit 1
-  joined "$name" "$parts" | split -b "$size" -d - "$new/$name.tar.part" ||
+  joined "$name" "$parts" | cut_parts "$name" "$new" "$size" ||
     { echo "carry: cutting $name into parts of $size failed" >&2; rm -rf "$new" "$old"; exit 1; }
-  (cd "$new" && sha256sum "$name".tar.part* >"$name.sha256") || exit 1
   [[ $(joined "$name" "$parts" | sha256sum) == "$(joined "$name" "$new" | sha256sum)" ]] ||
     { echo "carry: the new parts of $name differ from the old" >&2; rm -rf "$new" "$old"; exit 1; }
   # the old parts aside, the new ones in, the checksum file last
