@@ -54,7 +54,8 @@ def label(t):
     slots where they are its own (the task's section of configs/train/ppo.yaml)"""
     # the sweep's task YAML, else the training YAML of the task's section (a training aid such as
     # re_orientation's) that the run's config.yaml names
-    files = [f for f in [t.get("task_config") or run_env(t).get("task_config")] if f]
+    config = t.get("task_config") or run_env(t).get("task_config")
+    files = [config] if config else []
     # a list of every overrides file; a string in sweep.json files collected before it was one
     overrides = t.get("overrides") or []
     files += [overrides] if isinstance(overrides, str) else overrides
