@@ -4,8 +4,9 @@
 # build) into two folders, OLD and NEW.
 #   bench/learner_compare.sh start OUTDIR OLD NEW
 #       runs, in its own process session (it outlives the call; `wait` follows it):
-#       1. profile: `bidex train --profile` of 24 updates (3.1M slot-steps) of catch_abreast and
-#          of hand_over with each build, one at a time: OUTDIR/profile-TASK-{old,new}/
+#       1. profile: `bidex train --profile` of 24 updates (3.1M slot-steps;
+#          $BIDEX_COMPARE_PROFILE_STEPS slot-steps where set) of catch_abreast and of hand_over
+#          with each build, one at a time: OUTDIR/profile-TASK-{old,new}/
 #       2. solo: catch_abreast, seed 0, to 25M slot-steps with each build, one at a time (the
 #          training rate over a whole run, and the slot-steps at which it reached 43.4):
 #          OUTDIR/solo-{old,new}-s0/catch_abreast-ppo/
@@ -54,7 +55,8 @@ run)  # the sequence itself (start runs it in the background)
       d=$out/profile-$task-$b
       mkdir -p "$d"
       cmd=(train --task "$task" --device cuda --profile --run "/tmp/compare-profile-$task-$b"
-           --no-registry "${common[@]}" -o train.steps=3145728 "${extra[@]}")
+           --no-registry "${common[@]}" -o train.steps="${BIDEX_COMPARE_PROFILE_STEPS:-3145728}"
+           "${extra[@]}")
       "$(build_of $b)/apps/bidex" "${cmd[@]}" >"$d/profile.log" 2>&1
       cp "/tmp/compare-profile-$task-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
       echo "commit $(commit_of $b): bidex ${cmd[*]}" >"$d/command.txt"

@@ -58,7 +58,8 @@ class Algorithm {
   virtual ~Algorithm() = default;
   // Control steps of every slot collected before each update.
   virtual int steps_per_update() const = 0;
-  // Actions [N, A] for observations [N, D] (sampled: exploration), on the training device.
+  // Actions [N, A] for observations [N, D] (sampled: exploration), on the training device; read
+  // them before the next act(), which may reuse their memory (PPO returns its rollout's row).
   virtual torch::Tensor act(const torch::Tensor& obs) = 0;
   // The step that followed the last act().
   virtual void observe(const Transition& t) = 0;

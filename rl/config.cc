@@ -280,8 +280,8 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
         trpo ? std::vector<std::string>{"max_kl", "damping", "cg_iters", "backtracks",
                                         "accept_ratio", "step_fraction"}
              : std::vector<std::string>{"clip", "schedule", "desired_kl", "entropy_coef",
-                                        "clip_value_loss", "value_clip", "cuda_graph", "bf16",
-                                        "align_widths", "advantage_norm"};
+                                        "clip_value_loss", "value_clip", "cuda_graph",
+                                        "act_graph", "bf16", "align_widths", "advantage_norm"};
     keys.insert(keys.end(), own.begin(), own.end());
     p.allow_keys(keys);
     auto& o = c.ppo;
@@ -332,6 +332,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       o.clip_value_loss = p.req<bool>("clip_value_loss");
       o.value_clip = read_real(p, "value_clip", 0, 1e3, true);
       if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();
+      if (auto g = p.maybe("act_graph")) o.act_graph = g->as<bool>();  // absent before it existed
       if (auto b = p.maybe("bf16")) o.bf16 = b->as<bool>();  // absent before it existed
       if (auto b = p.maybe("align_widths")) o.align_widths = b->as<bool>();  // the same
       if (p.has("advantage_norm")) {  // absent from run configs written before it existed

@@ -38,6 +38,10 @@ struct PpoConfig {
   bool value_norm_task = false;
   // PPO and MTPPO on a CUDA device: replay the minibatch step as a CUDA graph (rl/ppo.h)
   bool cuda_graph = true;
+  // PPO and MTPPO on a CUDA device: replay the rollout's act step (normalising, acting, sampling,
+  // recording) as CUDA graphs, one per step of the horizon (rl/onpolicy.h); false where a run's
+  // config predates it, and for TRPO
+  bool act_graph = false;
   // PPO and MTPPO: the minibatch step's network products in bfloat16 (rl/autocast.h); the
   // parameters, gradients, optimizer and losses stay float32
   bool bf16 = false;

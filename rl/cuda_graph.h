@@ -20,14 +20,16 @@ namespace bidex::rl {
 // Records body() (which must read nothing back from the device) into a new graph on `stream`,
 // the current stream of the caller's CUDAStreamGuard. Returns the graph, or null where the
 // capture failed. `what` names the step in the messages ("PPO's minibatch step"), `key` the
-// setting that turns the graph off ("ppo.cuda_graph").
+// setting that turns the graph off ("ppo.cuda_graph"). `pool`: another graph's memory pool
+// (CUDAGraph::pool()) to share, for graphs that never run at the same time; {0, 0}: its own.
 template <class F>
 std::unique_ptr<at::cuda::CUDAGraph> capture_cuda_graph(const c10::cuda::CUDAStream& stream,
                                                         F&& body, const char* what,
-                                                        const char* key) {
+                                                        const char* key,
+                                                        at::cuda::MempoolId_t pool = {0, 0}) {
   auto graph = std::make_unique<at::cuda::CUDAGraph>();
   try {
-    graph->capture_begin();
+    graph->capture_begin(pool);
     body();  // recorded, not run
     graph->capture_end();
     std::fprintf(stderr, "bidex: %s: replayed as a CUDA graph\n", what);

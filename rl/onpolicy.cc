@@ -1,21 +1,50 @@
 #include "rl/onpolicy.h"
 
+#include <vector>
+
 #include "rl/checkpoint.h"
 
+#ifdef BIDEX_TORCH_CUDA
+#include "rl/cuda_graph.h"
+#endif
+
 namespace bidex::rl {
+
+#ifdef BIDEX_TORCH_CUDA
+struct GaussianOnPolicy::ActGraphs {
+  c10::cuda::CUDAStream stream = c10::cuda::getStreamFromPool();
+  torch::Tensor obs;  // the graphs' input, at one address
+  std::vector<std::unique_ptr<at::cuda::CUDAGraph>> step;  // one per rollout step
+  at::cuda::MempoolId_t pool = {0, 0};  // the first graph's, shared: they never run at once
+  at::cuda::CUDAEvent ready, done;  // the side stream waits for the caller's, and back
+};
+#else
+struct GaussianOnPolicy::ActGraphs {};
+#endif
 
 GaussianOnPolicy::GaussianOnPolicy(const PpoConfig& config, int64_t D, int64_t A, int64_t N,
                                    const torch::Device& device, int64_t value_tasks)
     : c_(config), model_(D, A, config, value_tasks) {
   model_->to(device);
   ro_ = std::make_unique<Rollout>(c_.horizon, N, D, A, device);
+  std_ = torch::empty_like(ro_->log_std);
 }
 
+GaussianOnPolicy::~GaussianOnPolicy() = default;
+
 torch::Tensor GaussianOnPolicy::act(const torch::Tensor& obs) {
+#ifdef BIDEX_TORCH_CUDA
+  if (c_.act_graph && obs.is_cuda()) return graphed_act(obs);
+#endif
+  act_into_rollout(obs);
+  return ro_->actions[t_];
+}
+
+void GaussianOnPolicy::act_into_rollout(const torch::Tensor& obs) {
   torch::NoGradGuard ng;
   if (t_ == 0) {  // the rollout's Gaussian keeps the log-std it started with
     ro_->log_std.copy_(model_->log_std().detach());
-    std_ = torch::exp(ro_->log_std);
+    torch::exp_out(std_, ro_->log_std);
   }
   if (c_.obs_norm) model_->obs_norm()->update(obs);
   auto nobs = model_->normalize_obs(obs);
@@ -27,8 +56,39 @@ torch::Tensor GaussianOnPolicy::act(const torch::Tensor& obs) {
   ro_->mu[t_].copy_(mu);
   ro_->values[t_].copy_(v);
   ro_->logp[t_].copy_(gaussian_log_prob(a, mu, ro_->log_std));
-  return a;
 }
+
+#ifdef BIDEX_TORCH_CUDA
+torch::Tensor GaussianOnPolicy::graphed_act(const torch::Tensor& obs) {
+  if (!graphs_) graphs_ = std::make_unique<ActGraphs>();
+  ActGraphs& g = *graphs_;
+  if (!g.obs.defined()) {
+    g.obs = torch::empty_like(obs);
+    g.step.resize(static_cast<size_t>(c_.horizon));
+  }
+  const auto main = c10::cuda::getCurrentCUDAStream();
+  g.ready.record(main);
+  g.ready.block(g.stream);
+  {
+    c10::cuda::CUDAStreamGuard on_side(g.stream);
+    g.obs.copy_(obs);
+    auto& graph = g.step[static_cast<size_t>(t_)];
+    if (!graph && rollouts_ > 0) {  // the parameters sit in the optimiser's flat buffer by now
+      graph = capture_cuda_graph(
+          g.stream, [&] { act_into_rollout(g.obs); }, "PPO's act step", "ppo.act_graph", g.pool);
+      if (!graph) c_.act_graph = false;
+      else if (t_ == 0) g.pool = graph->pool();
+    }
+    if (graph)
+      graph->replay();
+    else
+      act_into_rollout(g.obs);
+  }
+  g.done.record(g.stream);
+  g.done.block(main);
+  return ro_->actions[t_];
+}
+#endif
 
 void GaussianOnPolicy::observe(const Transition& t) {
   torch::NoGradGuard ng;
@@ -44,6 +104,7 @@ void GaussianOnPolicy::observe(const Transition& t) {
 torch::Tensor GaussianOnPolicy::finish_rollout(const torch::Tensor& obs) {
   torch::NoGradGuard ng;
   t_ = 0;
+  rollouts_ += 1;
   return model_->value(model_->normalize_obs(obs));
 }
 

@@ -18,6 +18,7 @@ class GaussianOnPolicy : public Algorithm {
   // value_tasks: the pack's task count where the critic's returns are normalised per task
   GaussianOnPolicy(const PpoConfig& config, int64_t obs_dim, int64_t act_dim, int64_t nslot,
                    const torch::Device& device, int64_t value_tasks = 0);
+  ~GaussianOnPolicy() override;
 
   int steps_per_update() const override { return c_.horizon; }
   torch::Tensor act(const torch::Tensor& obs) override;
@@ -36,8 +37,18 @@ class GaussianOnPolicy : public Algorithm {
   std::unique_ptr<Rollout> ro_;
 
  private:
-  torch::Tensor std_;
+  // act()'s work: normalises `obs` (updating the normaliser), samples the actions and writes the
+  // rollout's rows t_; the rows' addresses depend on t_ only, so that a CUDA graph can replay it
+  void act_into_rollout(const torch::Tensor& obs);
+  // act_into_rollout replayed as one CUDA graph per rollout step (ppo.act_graph): the first
+  // rollout runs eagerly on a side stream, the second captures each step there
+  struct ActGraphs;
+  torch::Tensor graphed_act(const torch::Tensor& obs);
+
+  torch::Tensor std_;  // the rollout's action deviation, written in place at its first step
   int64_t t_ = 0;  // the rollout step the next act() fills
+  int64_t rollouts_ = 0;  // rollouts finished
+  std::unique_ptr<ActGraphs> graphs_;
 };
 
 }  // namespace bidex::rl

@@ -105,6 +105,33 @@ TEST_CASE("overrides (-o) change nested keys with YAML values", "[rl][config]") 
   CHECK(resolve("lift_underarm", {"ppo.horizon=3"}).ppo.horizon == 3);
 }
 
+// ppo.act_graph (rl/onpolicy.h): replayed only on a CUDA device, so on the CPU the setting is a
+// parsed value; a run's config written before the key existed, and TRPO, keep the eager act
+TEST_CASE("ppo.act_graph: on in ppo.yaml and mtppo.yaml, off for configs without it and TRPO",
+          "[rl][config]") {
+  CHECK(resolve("hand_over").ppo.act_graph);
+  CHECK_FALSE(resolve("hand_over", {"ppo.act_graph=false"}).ppo.act_graph);
+  const std::string mt =
+      rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4", {});
+  CHECK(rl::parse_train_config(mt, "resolved").ppo.act_graph);
+  std::string old = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
+  const auto key = old.find("act_graph:");
+  REQUIRE(key != std::string::npos);
+  const auto line = old.rfind('\n', key) + 1;  // the key's whole line
+  old.erase(line, old.find('\n', key) - line + 1);
+  REQUIRE(old.find("act_graph") == std::string::npos);
+  const auto c = rl::parse_train_config(old, "run-config.yaml");
+  CHECK_FALSE(c.ppo.act_graph);
+  CHECK(c.ppo.cuda_graph);  // the rest as before
+  CHECK_FALSE(rl::parse_train_config(
+                  rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", "hand_over", {}),
+                  "resolved")
+                  .ppo.act_graph);
+  require_config_error(
+      [] { resolve("hand_over", {"ppo.act_graph=sometimes"}); }, "ppo.act_graph", "true or false",
+      "sometimes");
+}
+
 TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected and actual",
           "[rl][config]") {
   const std::string file = rl::default_train_config("ppo");
