@@ -24,7 +24,8 @@
 # be one build: BIDEX_OLD_ARGS and BIDEX_NEW_ARGS add settings to each side's commands, every
 # stage's (e.g. "-o ppo.bf16=true"; "-o td3.cuda_graph=true" with BIDEX_COMPARE_ALGOS=td3). BIDEX_COMPARE_STAGES (default "profile solo together";
 # offpolicy runs only when named) picks stages,
-# BIDEX_COMPARE_TASKS (default "catch_abreast hand_over") the profiles' tasks.
+# BIDEX_COMPARE_TASKS (default "catch_abreast hand_over") the profiles' tasks, BIDEX_COMPARE_TMP
+# (default /tmp) the folder of the runs themselves.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 stage=${1:-}
@@ -41,6 +42,7 @@ start)
   ;;
 run)  # the sequence itself (start runs it in the background)
   out=$2; old=$3; new=$4
+  tmp=${BIDEX_COMPARE_TMP:-/tmp}  # the runs' own folders (two comparisons at once: one each)
   common=(-o env.slots=16384 -o ppo.minibatches=16)
   build_of() { [[ $1 == old ]] && echo "$old" || echo "$new"; }
   # shellcheck disable=SC2206
@@ -54,18 +56,18 @@ run)  # the sequence itself (start runs it in the background)
       echo "$(date -u +%T) profile $task $b"
       d=$out/profile-$task-$b
       mkdir -p "$d"
-      cmd=(train --task "$task" --device cuda --profile --run "/tmp/compare-profile-$task-$b"
+      cmd=(train --task "$task" --device cuda --profile --run "$tmp/compare-profile-$task-$b"
            --no-registry "${common[@]}" -o train.steps="${BIDEX_COMPARE_PROFILE_STEPS:-3145728}"
            "${extra[@]}")
       "$(build_of $b)/apps/bidex" "${cmd[@]}" >"$d/profile.log" 2>&1
-      cp "/tmp/compare-profile-$task-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
+      cp "$tmp/compare-profile-$task-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
       echo "commit $(commit_of $b): bidex ${cmd[*]}" >"$d/command.txt"
     done
   done
   train() {  # BUILD_NAME OUT_SUBDIR TASK SEED SLOT_STEPS
     extra_of "$1"
     BIDEX_GPU_BUILD=$(build_of "$1") BIDEX_COMMIT=$(commit_of "$1") \
-      BIDEX_GPU_RUNS=/tmp/compare-runs-$2 \
+      BIDEX_GPU_RUNS=$tmp/compare-runs-$2 \
       bench/gpu_learn_run.sh train "$out/$2" "$3" 16384 3000 43.4 "${common[@]:2}" \
       -o seed="$4" -o train.steps="$5" "${extra[@]}" >"$out/$2-$3.log" 2>&1
   }
@@ -89,10 +91,10 @@ run)  # the sequence itself (start runs it in the background)
       d=$out/offpolicy-$algo-$b
       mkdir -p "$d"
       cmd=(train --task catch_abreast --algo "$algo" --device cuda --profile
-           --run "/tmp/compare-offpolicy-$algo-$b" --no-registry -o train.steps=1048576
+           --run "$tmp/compare-offpolicy-$algo-$b" --no-registry -o train.steps=1048576
            "${extra[@]}")
       "$(build_of $b)/apps/bidex" "${cmd[@]}" >"$d/profile.log" 2>&1
-      cp "/tmp/compare-offpolicy-$algo-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
+      cp "$tmp/compare-offpolicy-$algo-$b"/{profile.json,metrics.csv} "$d/" 2>/dev/null
       echo "commit $(commit_of $b): bidex ${cmd[*]}" >"$d/command.txt"
     done
   done
