@@ -1,7 +1,9 @@
 #!/usr/bin/env bash
 # Two builds' PPO learners side by side on one GPU machine (issue 39): the same command, the
 # same machine, one lease. Built first with bench/gpu_learn_run.sh build (or python_gpu_run.sh
-# build) into two folders, OLD and NEW.
+# build) into two folders, OLD and NEW. (Commit 5d78e24, issue 39's starting learner, builds
+# from a bundle without the renderer's packages only with today's sim/render.cc in its tree:
+# bench/results/learner-equiv-h200x2/lease27/lease.txt.)
 #   bench/learner_compare.sh start OUTDIR OLD NEW
 #       runs, in its own process session (it outlives the call; `wait` follows it):
 #       1. profile: `bidex train --profile` of 24 updates (3.1M slot-steps;
