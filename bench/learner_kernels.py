@@ -26,6 +26,8 @@ import subprocess
 import sys
 import time
 
+from atomic_io import write_text
+
 
 def parse():
     p = argparse.ArgumentParser(description=__doc__,
@@ -189,12 +191,8 @@ def main():
         print(f"{name}: eager {eager_ms:.3f} ms, graph {graph_ms:.3f} ms, "
               f"kernels {sum(kernels.values()):.3f} ms", flush=True)
     os.makedirs(a.out, exist_ok=True)
-    for fname, text in (("learner-kernels.json", json.dumps(result, indent=1) + "\n"),
-                        ("learner-kernels.txt", "\n".join(tables))):
-        tmp = os.path.join(a.out, fname + ".tmp")
-        with open(tmp, "w") as f:
-            f.write(text)
-        os.replace(tmp, os.path.join(a.out, fname))
+    write_text(os.path.join(a.out, "learner-kernels.json"), json.dumps(result, indent=1) + "\n")
+    write_text(os.path.join(a.out, "learner-kernels.txt"), "\n".join(tables))
 
 
 def timed(torch, fn, n):
