@@ -51,32 +51,33 @@ std::unique_ptr<at::cuda::CUDAGraph> capture_cuda_graph(const c10::cuda::CUDAStr
   }
 }
 
-// An off-policy learner's update (its gradient steps) replayed as one CUDA graph, as PPO's
-// minibatch step (rl/ppo.cc): the first call runs the steps eagerly on a side stream, the second
-// captures them there and replays them, and every later call replays the graph. The steps must
-// be the same sequence at every call (the replay buffer full, so that the sampled range is fixed)
-// and read nothing back; they read the buffer's rows where they are (its tensors keep their
-// addresses) and draw random numbers from the CUDA generator's graph-safe state. The caller
-// rebinds its FlatAdam parameters before each call (a replay runs no host code). TD3's, DDPG's and
-// SAC's updates (rl/td3.cc, rl/sac.cc).
+// A learner's step replayed as one CUDA graph, as PPO's minibatch step (rl/ppo.cc): the first
+// call runs the steps eagerly on a side stream, the second captures them there and replays them,
+// and every later call replays the graph. The steps must be the same sequence at every call and
+// read nothing back; they read their inputs where they are (tensors that keep their addresses)
+// and draw random numbers from the CUDA generator's graph-safe state. The caller rebinds its
+// FlatAdam parameters before each call (a replay runs no host code). TD3's, DDPG's and SAC's
+// updates (rl/td3.cc, rl/sac.cc: the replay buffer full, so that the sampled range is fixed) and
+// PPO's act step, one per step of the rollout (rl/onpolicy.cc).
 class GraphedSteps {
  public:
-  // `what` and `key` as capture_cuda_graph's
-  GraphedSteps(const char* what, const char* key) : what_(what), key_(key) {}
+  // `what` and `key` as capture_cuda_graph's; `pool` a memory pool shared with graphs that never
+  // run at the same time as this one (at::cuda::graph_pool_handle()), {0, 0}: its own
+  GraphedSteps(const char* what, const char* key, at::cuda::MempoolId_t pool = {0, 0})
+      : what_(what), key_(key), pool_(pool) {}
 
   // Runs steps() as above, the caller's stream waiting for it. Returns false where the capture
   // failed (steps() then ran eagerly; the caller turns its setting off).
   template <class F>
   bool run(F&& steps) {
     const auto main = c10::cuda::getCurrentCUDAStream();
-    at::cuda::CUDAEvent ready;
-    ready.record(main);
-    ready.block(stream_);
+    ready_.record(main);
+    ready_.block(stream_);
     bool captured = true;
     {
       c10::cuda::CUDAStreamGuard on_side(stream_);
       if (warm_ && !graph_) {
-        graph_ = capture_cuda_graph(stream_, steps, what_, key_);
+        graph_ = capture_cuda_graph(stream_, steps, what_, key_, pool_);
         captured = graph_ != nullptr;
       }
       if (graph_)
@@ -85,16 +86,17 @@ class GraphedSteps {
         steps();
       warm_ = true;
     }
-    at::cuda::CUDAEvent done;
-    done.record(stream_);
-    done.block(main);
+    done_.record(stream_);
+    done_.block(main);
     return captured;
   }
 
  private:
   const char* what_;
   const char* key_;
+  at::cuda::MempoolId_t pool_;
   c10::cuda::CUDAStream stream_ = c10::cuda::getStreamFromPool();
+  at::cuda::CUDAEvent ready_, done_;  // the side stream waits for the caller's, and back
   std::unique_ptr<at::cuda::CUDAGraph> graph_;
   bool warm_ = false;
 };

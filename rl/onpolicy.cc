@@ -12,11 +12,14 @@ namespace bidex::rl {
 
 #ifdef BIDEX_TORCH_CUDA
 struct GaussianOnPolicy::ActGraphs {
-  c10::cuda::CUDAStream stream = c10::cuda::getStreamFromPool();
+  ActGraphs(const torch::Tensor& like, int64_t horizon) : obs(torch::empty_like(like)) {
+    const auto pool = at::cuda::graph_pool_handle();  // shared: the steps never run at once
+    step.reserve(static_cast<size_t>(horizon));
+    for (int64_t t = 0; t < horizon; ++t)
+      step.emplace_back("PPO's act step", "ppo.act_graph", pool);
+  }
   torch::Tensor obs;  // the graphs' input, at one address
-  std::vector<std::unique_ptr<at::cuda::CUDAGraph>> step;  // one per rollout step
-  at::cuda::MempoolId_t pool = {0, 0};  // the first graph's, shared: they never run at once
-  at::cuda::CUDAEvent ready, done;  // the side stream waits for the caller's, and back
+  std::vector<GraphedSteps> step;  // one per rollout step
 };
 #else
 struct GaussianOnPolicy::ActGraphs {};
@@ -60,32 +63,12 @@ void GaussianOnPolicy::act_into_rollout(const torch::Tensor& obs) {
 
 #ifdef BIDEX_TORCH_CUDA
 torch::Tensor GaussianOnPolicy::graphed_act(const torch::Tensor& obs) {
-  if (!graphs_) graphs_ = std::make_unique<ActGraphs>();
-  ActGraphs& g = *graphs_;
-  if (!g.obs.defined()) {
-    g.obs = torch::empty_like(obs);
-    g.step.resize(static_cast<size_t>(c_.horizon));
-  }
-  const auto main = c10::cuda::getCurrentCUDAStream();
-  g.ready.record(main);
-  g.ready.block(g.stream);
-  {
-    c10::cuda::CUDAStreamGuard on_side(g.stream);
-    g.obs.copy_(obs);
-    auto& graph = g.step[static_cast<size_t>(t_)];
-    if (!graph && rollouts_ > 0) {  // the parameters sit in the optimiser's flat buffer by now
-      graph = capture_cuda_graph(
-          g.stream, [&] { act_into_rollout(g.obs); }, "PPO's act step", "ppo.act_graph", g.pool);
-      if (!graph) c_.act_graph = false;
-      else if (t_ == 0) g.pool = graph->pool();
-    }
-    if (graph)
-      graph->replay();
-    else
-      act_into_rollout(g.obs);
-  }
-  g.done.record(g.stream);
-  g.done.block(main);
+  if (!graphs_) graphs_ = std::make_unique<ActGraphs>(obs, c_.horizon);
+  graphs_->obs.copy_(obs);  // on the caller's stream, which the step's waits for
+  // a step's first call is in the first rollout; its capture, in the second, comes after an
+  // update has put the parameters in the optimiser's flat buffer
+  auto& step = graphs_->step[static_cast<size_t>(t_)];
+  if (!step.run([&] { act_into_rollout(graphs_->obs); })) c_.act_graph = false;
   return ro_->actions[t_];
 }
 #endif
@@ -104,7 +87,6 @@ void GaussianOnPolicy::observe(const Transition& t) {
 torch::Tensor GaussianOnPolicy::finish_rollout(const torch::Tensor& obs) {
   torch::NoGradGuard ng;
   t_ = 0;
-  rollouts_ += 1;
   return model_->value(model_->normalize_obs(obs));
 }
 

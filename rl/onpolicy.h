@@ -40,14 +40,13 @@ class GaussianOnPolicy : public Algorithm {
   // act()'s work: normalises `obs` (updating the normaliser), samples the actions and writes the
   // rollout's rows t_; the rows' addresses depend on t_ only, so that a CUDA graph can replay it
   void act_into_rollout(const torch::Tensor& obs);
-  // act_into_rollout replayed as one CUDA graph per rollout step (ppo.act_graph): the first
-  // rollout runs eagerly on a side stream, the second captures each step there
+  // act_into_rollout replayed as one CUDA graph per rollout step (ppo.act_graph, GraphedSteps of
+  // rl/cuda_graph.h): the first rollout runs eagerly on side streams, the second captures there
   struct ActGraphs;
   torch::Tensor graphed_act(const torch::Tensor& obs);
 
   torch::Tensor std_;  // the rollout's action deviation, written in place at its first step
   int64_t t_ = 0;  // the rollout step the next act() fills
-  int64_t rollouts_ = 0;  // rollouts finished
   std::unique_ptr<ActGraphs> graphs_;
 };
 
