@@ -31,6 +31,11 @@ class Bf16Autocast {
   Bf16Autocast(const Bf16Autocast&) = delete;
   Bf16Autocast& operator=(const Bf16Autocast&) = delete;
 
+  // the type a matrix product on `device` runs in now: autocast's where it is on, else `type`
+  static at::ScalarType product_type(c10::DeviceType device, at::ScalarType type) {
+    return enabled(device) ? dtype(device) : type;
+  }
+
  private:
 #if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
   static bool enabled(c10::DeviceType d) { return at::autocast::is_autocast_enabled(d); }

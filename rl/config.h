@@ -48,6 +48,11 @@ struct PpoConfig {
   // PPO and MTPPO: the actor's and critic's layers of a width not a multiple of 8 (the
   // observation's, the action's, the value's) padded with zeros to one (rl/policy.h, PaddedLinear)
   bool align_widths = false;
+  // PPO and MTPPO: FlatAdam's fused step (rl/flat_adam.h; where LibTorch has it, 2.4 on)
+  bool fused_adam = false;
+  // PPO and MTPPO: the layers' bias gradients as matrix products (rl/policy.h,
+  // linear_gemm_bias_grad) instead of sums over the rows
+  bool bias_grad_gemm = false;
   // advantages normalised over the whole update ("batch") or within each task of a multi-task
   // pack ("task", multi-task PPO: each row's task read from its one-hot id)
   std::string advantage_norm = "batch";

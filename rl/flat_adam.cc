@@ -2,6 +2,15 @@
 
 #include <cmath>
 
+#include <torch/version.h>
+
+// LibTorch 2.4 has _fused_adam_ with a learning rate tensor on the CPU and on CUDA devices
+#if TORCH_VERSION_MAJOR > 2 || (TORCH_VERSION_MAJOR == 2 && TORCH_VERSION_MINOR >= 4)
+#define BIDEX_FUSED_ADAM 1
+#else
+#define BIDEX_FUSED_ADAM 0
+#endif
+
 namespace bidex::rl {
 
 namespace {
@@ -17,9 +26,15 @@ void check_fits(const torch::Tensor& now, const torch::Tensor& place, size_t k, 
 
 }  // namespace
 
+bool FlatAdam::fused_available() { return BIDEX_FUSED_ADAM != 0; }
+
 FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, double beta2,
-                   double eps)
-    : params_(std::move(params)), beta1_(beta1), beta2_(beta2), eps_(eps) {
+                   double eps, bool fused)
+    : params_(std::move(params)),
+      beta1_(beta1),
+      beta2_(beta2),
+      eps_(eps),
+      fused_(fused && fused_available()) {
   TORCH_CHECK(!params_.empty(), "FlatAdam: no parameters to optimise");
   const auto& first = params_[0];
   int64_t total = 0;
@@ -41,10 +56,15 @@ FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, d
   exp_avg_sq_ = torch::zeros({total}, opts);
   lr_ = torch::scalar_tensor(lr, opts.dtype(torch::kFloat64));
   step_ = torch::zeros({}, opts.dtype(torch::kFloat64));
+  step32_ = torch::zeros({}, opts.dtype(torch::kFloat32));
+  lr32_ = torch::zeros({}, opts.dtype(torch::kFloat32));
   int64_t at = 0;
   for (const auto& p : params_) {
-    value_views_.push_back(values_.narrow(0, at, p.numel()).view(p.sizes()));
-    grad_views_.push_back(grads_.narrow(0, at, p.numel()).view(p.sizes()));
+    auto view = [&](const torch::Tensor& flat) { return flat.narrow(0, at, p.numel()).view(p.sizes()); };
+    value_views_.push_back(view(values_));
+    grad_views_.push_back(view(grads_));
+    exp_avg_views_.push_back(view(exp_avg_));
+    exp_avg_sq_views_.push_back(view(exp_avg_sq_));
     at += p.numel();
   }
   // nothing points into the new buffers yet: this moves every value and gradient in
@@ -61,6 +81,7 @@ void FlatAdam::rebind() {
       values.copy_(p.detach());
       p.set_data(values);
     }
+    if (fused_) continue;  // its gradients stay where autograd puts them
     // autograd accumulates into a defined gradient in place, so a bound one stays bound
     auto& g = p.mutable_grad();
     const auto& grad = grad_views_[k];
@@ -77,20 +98,64 @@ void FlatAdam::rebind() {
 
 void FlatAdam::zero_grad() {
   rebind();
-  grads_.zero_();
+  clip_divisor_ = torch::Tensor();
+  if (!fused_) {
+    grads_.zero_();
+    return;
+  }
+  for (auto& p : params_) p.mutable_grad() = torch::Tensor();
+}
+
+std::vector<torch::Tensor> FlatAdam::current_grads() const {
+  std::vector<torch::Tensor> g;
+  g.reserve(params_.size());
+  for (size_t k = 0; k < params_.size(); ++k) {
+    const auto& grad = params_[k].grad();
+    if (!grad.defined()) {
+      g.push_back(grad_views_[k]);  // never written when fused: zeros
+      continue;
+    }
+    check_fits(grad, grad_views_[k], k, "gradient");
+    g.push_back(grad);
+  }
+  return g;
 }
 
 torch::Tensor FlatAdam::clip_grad_norm(double max_norm) {
   rebind();
   torch::NoGradGuard ng;
+  if (fused_) {  // the norm of the tensors' norms; step() divides by the clip's divisor
+    const auto norm = torch::stack(torch::_foreach_norm(current_grads())).norm();
+    clip_divisor_ = torch::clamp_min((norm + 1e-6) / max_norm, 1.0).to(torch::kFloat32);
+    return norm;
+  }
   auto norm = grads_.norm();
   grads_.mul_(torch::clamp_max(max_norm / (norm + 1e-6), 1.0));
   return norm;
 }
 
+void FlatAdam::fused_step() {
+#if BIDEX_FUSED_ADAM
+  step32_.copy_(step_);
+  lr32_.copy_(lr_);
+  const std::vector<torch::Tensor> steps(params_.size(), step32_);
+  const std::optional<torch::Tensor> divisor =
+      clip_divisor_.defined() ? std::optional<torch::Tensor>(clip_divisor_) : std::nullopt;
+  at::_fused_adam_(value_views_, current_grads(), exp_avg_views_, exp_avg_sq_views_,
+                   at::TensorList(), steps, lr32_, beta1_, beta2_, /*weight_decay=*/0.0, eps_,
+                   /*amsgrad=*/false, /*maximize=*/false, divisor, std::nullopt);
+  clip_divisor_ = torch::Tensor();
+#endif
+}
+
 void FlatAdam::step() {
   rebind();
   torch::NoGradGuard ng;
+  if (fused_) {
+    step_.add_(1);
+    fused_step();
+    return;
+  }
   // the step count and the bias corrections on the device (float64, as LibTorch's Adam computes
   // them on the host), so that a CUDA graph replaying this step counts on
   step_.add_(1);

@@ -15,6 +15,15 @@
 // with one difference: a parameter whose gradient is undefined at a step counts as having a zero
 // gradient (LibTorch's Adam skips it); zero_grad() never undefines a gradient.
 //
+// Fused (`fused` true, where LibTorch has `_fused_adam_` with a device learning rate: 2.4 on;
+// fused_available() says): the same math in one multi-tensor kernel that reads each value,
+// gradient and moment once (the plain step is about ten element-wise passes over the buffers),
+// with the gradient clip's factor applied inside it. zero_grad() then undefines the gradients, so
+// that autograd hands its fresh gradient tensors over instead of adding them to zeroed ones;
+// clip_grad_norm() and step() read them where autograd put them, and a gradient still undefined
+// counts as zero. The bias corrections are computed in float32 there (float64 in the plain step):
+// the two steps agree to float rounding (tests/rl/flat_adam_test.cc).
+//
 // Parameters must stay the tensors the optimiser was given. Something may still replace their
 // storage behind its back: Module::load (InputArchive::read) calls tensor.set_(...), and a
 // LibTorch 2 Module::zero_grad() undefines the gradients, so that autograd then allocates fresh
@@ -36,17 +45,23 @@ class FlatAdam {
  public:
   // `params`: distinct tensors of one dtype on one device (their values and gradients move
   // into the flat buffers here).
+  // `fused`: the fused step where fused_available(), the plain one otherwise.
   FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1 = 0.9,
-           double beta2 = 0.999, double eps = 1e-8);
+           double beta2 = 0.999, double eps = 1e-8, bool fused = false);
+  // whether this LibTorch has the fused step (2.4 on)
+  static bool fused_available();
+  // whether this optimiser steps fused
+  bool fused() const { return fused_; }
   // a copy would share the buffers and step the parameters twice
   FlatAdam(const FlatAdam&) = delete;
   FlatAdam& operator=(const FlatAdam&) = delete;
 
-  // Zeroes the flat gradient (one kernel).
+  // Zeroes the flat gradient (one kernel); fused, undefines the gradients instead.
   void zero_grad();
   // Scales the gradients as torch::nn::utils::clip_grad_norm_ (2-norm) does: by
-  // min(1, max_norm / (norm + 1e-6)), applied on the device. Returns the norm before clipping, a
-  // 0-dim tensor on the device (nothing is read back).
+  // min(1, max_norm / (norm + 1e-6)), applied on the device (fused: by the next step(), which
+  // leaves the scaled gradients in place). Returns the norm before clipping, a 0-dim tensor on the
+  // device (nothing is read back).
   torch::Tensor clip_grad_norm(double max_norm);
   // One Adam step of every parameter.
   void step();
@@ -81,13 +96,20 @@ class FlatAdam {
  private:
   // load() of a LibTorch Adam's archive
   void load_libtorch_adam(torch::serialize::InputArchive& archive);
+  // fused: each parameter's gradient where autograd left it, or its zeroed flat view
+  std::vector<torch::Tensor> current_grads() const;
+  void fused_step();
 
   std::vector<torch::Tensor> params_;
   // each parameter's place in the flat buffers, shaped as the parameter
-  std::vector<torch::Tensor> value_views_, grad_views_;
+  std::vector<torch::Tensor> value_views_, grad_views_, exp_avg_views_, exp_avg_sq_views_;
   torch::Tensor values_, grads_, exp_avg_, exp_avg_sq_, lr_;
   torch::Tensor step_;  // 0-dim float64 on the device: nothing in step() is a host value
   double beta1_, beta2_, eps_;
+  bool fused_;
+  // fused: the step count and rate in float32, as the kernel reads them (copied from step_ and
+  // lr_ at each step), and the pending clip's divisor (undefined: none)
+  torch::Tensor step32_, lr32_, clip_divisor_;
 };
 
 }  // namespace bidex::rl

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <utility>
 
+#include "rl/autocast.h"
+
 namespace bidex::rl {
 
 RunningNormImpl::RunningNormImpl(int64_t dim, double clip, bool groups) : clip_(clip) {
@@ -114,19 +116,66 @@ namespace {
 int64_t round_up(int64_t n, int64_t to) { return (n + to - 1) / to * to; }
 
 // an initialised [in -> out] layer, padded when `align` asks for it
-void push_linear(torch::nn::Sequential& net, int64_t in, int64_t out, double gain, int64_t align) {
+void push_linear(torch::nn::Sequential& net, int64_t in, int64_t out, double gain, int64_t align,
+                 bool bias_grad_gemm) {
   torch::nn::Linear lin(in, out);
   torch::nn::init::orthogonal_(lin->weight, gain);
   torch::nn::init::zeros_(lin->bias);
-  if (align > 1 && (in % align != 0 || out % align != 0))
-    net->push_back(PaddedLinear(lin->weight, lin->bias, align));
+  if (bias_grad_gemm || (align > 1 && (in % align != 0 || out % align != 0)))
+    net->push_back(PaddedLinear(lin->weight, lin->bias, align, bias_grad_gemm));
   else
     net->push_back(lin);
 }
+
+using torch::autograd::AutogradContext;
+using torch::autograd::variable_list;
+
+struct GemmBiasGradLinear : torch::autograd::Function<GemmBiasGradLinear> {
+  static torch::Tensor forward(AutogradContext* ctx, const torch::Tensor& x,
+                               const torch::Tensor& w, const torch::Tensor& b) {
+    const auto type = Bf16Autocast::product_type(x.device().type(), x.scalar_type());
+    const auto x2 = x.reshape({-1, x.size(-1)}).to(type);
+    const auto wt = w.to(type);
+    auto y = torch::addmm(b.to(type), x2, wt.t());
+    ctx->save_for_backward({x2, wt});
+    ctx->saved_data["x_grad"] = x.requires_grad();
+    ctx->saved_data["x_type"] = static_cast<int64_t>(x.scalar_type());
+    ctx->saved_data["w_type"] = static_cast<int64_t>(w.scalar_type());
+    ctx->saved_data["b_type"] = static_cast<int64_t>(b.scalar_type());
+    auto shape = x.sizes().vec();
+    shape.back() = w.size(0);
+    return y.view(shape);
+  }
+
+  static variable_list backward(AutogradContext* ctx, variable_list grads) {
+    const auto saved = ctx->get_saved_variables();
+    const auto& x2 = saved[0];
+    const auto& wt = saved[1];
+    auto type_of = [&](const char* key) {
+      return static_cast<torch::ScalarType>(ctx->saved_data[key].toInt());
+    };
+    const auto dy = grads[0].reshape({-1, wt.size(0)}).to(wt.scalar_type());
+    torch::Tensor dx;
+    if (ctx->saved_data["x_grad"].toBool()) {
+      auto shape = grads[0].sizes().vec();
+      shape.back() = wt.size(1);
+      dx = dy.mm(wt).view(shape).to(type_of("x_type"));
+    }
+    const auto dw = dy.t().mm(x2).to(type_of("w_type"));
+    const auto db = torch::ones({1, dy.size(0)}, dy.options()).mm(dy).view({wt.size(0)});
+    return {dx, dw, db.to(type_of("b_type"))};
+  }
+};
 }  // namespace
 
-PaddedLinearImpl::PaddedLinearImpl(const torch::Tensor& w, const torch::Tensor& b, int64_t align)
-    : in_(w.size(1)), out_(w.size(0)) {
+torch::Tensor linear_gemm_bias_grad(const torch::Tensor& x, const torch::Tensor& weight,
+                                    const torch::Tensor& bias) {
+  return GemmBiasGradLinear::apply(x, weight, bias);
+}
+
+PaddedLinearImpl::PaddedLinearImpl(const torch::Tensor& w, const torch::Tensor& b, int64_t align,
+                                   bool bias_grad_gemm)
+    : in_(w.size(1)), out_(w.size(0)), bias_grad_gemm_(bias_grad_gemm) {
   TORCH_CHECK(align >= 1, "PaddedLinear: align must be at least 1, got ", align);
   torch::NoGradGuard ng;
   const int64_t in_p = round_up(in_, align), out_p = round_up(out_, align);
@@ -137,23 +186,25 @@ PaddedLinearImpl::PaddedLinearImpl(const torch::Tensor& w, const torch::Tensor& 
 
 torch::Tensor PaddedLinearImpl::forward(const torch::Tensor& x) {
   const int64_t pad = weight.size(1) - in_;
-  auto y = torch::nn::functional::linear(pad > 0 ? torch::constant_pad_nd(x, {0, pad}) : x, weight,
-                                         bias);
+  const auto xp = pad > 0 ? torch::constant_pad_nd(x, {0, pad}) : x;
+  auto y = bias_grad_gemm_ ? linear_gemm_bias_grad(xp, weight, bias)
+                           : torch::nn::functional::linear(xp, weight, bias);
   return weight.size(0) > out_ ? y.narrow(-1, 0, out_) : y;
 }
 
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
-                          const std::string& activation, double out_gain, int64_t align) {
+                          const std::string& activation, double out_gain, int64_t align,
+                          bool bias_grad_gemm) {
   torch::nn::Sequential net;
   int64_t width = in;
   for (int h : hidden) {
-    push_linear(net, width, h, std::sqrt(2.0), align);
+    push_linear(net, width, h, std::sqrt(2.0), align, bias_grad_gemm);
     if (activation == "elu") net->push_back(torch::nn::ELU());
     else if (activation == "relu") net->push_back(torch::nn::ReLU());
     else net->push_back(torch::nn::Tanh());
     width = h;
   }
-  push_linear(net, width, out, out_gain, align);
+  push_linear(net, width, out, out_gain, align, bias_grad_gemm);
   return net;
 }
 
@@ -167,8 +218,10 @@ ActorCriticImpl::ActorCriticImpl(int64_t obs_dim, int64_t act_dim, const PpoConf
   // orthogonal initialisation: sqrt(2) for hidden layers, 0.01 for the actor's output, 1 for the
   // critic's (the original's gains)
   const int64_t align = c.align_widths ? 8 : 1;
-  actor_ = register_module("actor", mlp(obs_dim, c.hidden, act_dim, c.activation, 0.01, align));
-  critic_ = register_module("critic", mlp(obs_dim, c.hidden, 1, c.activation, 1.0, align));
+  actor_ = register_module(
+      "actor", mlp(obs_dim, c.hidden, act_dim, c.activation, 0.01, align, c.bias_grad_gemm));
+  critic_ = register_module(
+      "critic", mlp(obs_dim, c.hidden, 1, c.activation, 1.0, align, c.bias_grad_gemm));
   log_std_ = register_parameter("log_std", torch::full({act_dim}, std::log(c.init_std)));
   obs_norm_ = register_module("obs_norm", RunningNorm(obs_dim));
   value_norm_ = register_module("value_norm", value_tasks > 0

@@ -66,9 +66,20 @@ torch::Tensor task_ids(const torch::Tensor& obs, int64_t ntasks);
 // A multilayer perceptron: `hidden` layers of `activation` (elu, relu or tanh), orthogonal
 // weights with gain sqrt 2 and `out_gain` for the output layer, zero biases. With `align` > 1
 // a layer whose input or output width is not a multiple of `align` is a PaddedLinear of the same
-// initial weights (the network's outputs are the same up to the order of summation).
+// initial weights (the network's outputs are the same up to the order of summation). With
+// `bias_grad_gemm` every layer is a PaddedLinear whose bias gradient is a matrix product
+// (linear_gemm_bias_grad).
 torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t out,
-                          const std::string& activation, double out_gain, int64_t align = 1);
+                          const std::string& activation, double out_gain, int64_t align = 1,
+                          bool bias_grad_gemm = false);
+
+// x W^T + b as torch::nn::functional::linear, with the bias gradient taken as a matrix product
+// (a row of ones times the output's gradient) instead of a sum over the rows: on a GPU a
+// bfloat16 column sum of 8,192 rows is a slow reduction kernel, the product a fast one. Under
+// autocast the product and the saved inputs are in the autocast type, as linear's; the
+// gradients come back in the parameters' types. Any leading shape of x.
+torch::Tensor linear_gemm_bias_grad(const torch::Tensor& x, const torch::Tensor& weight,
+                                    const torch::Tensor& bias);
 
 // A linear layer whose weight and bias carry zero rows and columns up to widths that are
 // multiples of `align`: forward() pads its input with zero columns and returns the first `out`
@@ -78,13 +89,16 @@ torch::nn::Sequential mlp(int64_t in, const std::vector<int>& hidden, int64_t ou
 // Adam and gradient clipping. Its parameters are named `weight` and `bias`, as torch::nn::Linear's.
 class PaddedLinearImpl : public torch::nn::Module {
  public:
-  // from a [out, in] layer's weight and bias
-  PaddedLinearImpl(const torch::Tensor& weight, const torch::Tensor& bias, int64_t align);
+  // from a [out, in] layer's weight and bias; `bias_grad_gemm`: forward() is
+  // linear_gemm_bias_grad (align 1 then pads nothing)
+  PaddedLinearImpl(const torch::Tensor& weight, const torch::Tensor& bias, int64_t align,
+                   bool bias_grad_gemm = false);
   torch::Tensor forward(const torch::Tensor& x);
   torch::Tensor weight, bias;  // [out padded, in padded], [out padded]
 
  private:
   int64_t in_, out_;
+  bool bias_grad_gemm_;
 };
 TORCH_MODULE(PaddedLinear);
 

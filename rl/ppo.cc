@@ -106,7 +106,10 @@ struct Ppo::Graph {};
 #endif
 
 Ppo::Ppo(ActorCritic model, const PpoConfig& config, int64_t ntasks)
-    : model_(std::move(model)), c_(config), ntasks_(ntasks), opt_(model_->parameters(), c_.lr) {}
+    : model_(std::move(model)),
+      c_(config),
+      ntasks_(ntasks),
+      opt_(model_->parameters(), c_.lr, 0.9, 0.999, 1e-8, c_.fused_adam) {}
 
 Ppo::~Ppo() = default;
 

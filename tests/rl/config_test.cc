@@ -105,31 +105,44 @@ TEST_CASE("overrides (-o) change nested keys with YAML values", "[rl][config]") 
   CHECK(resolve("lift_underarm", {"ppo.horizon=3"}).ppo.horizon == 3);
 }
 
-// ppo.act_graph (rl/onpolicy.h): replayed only on a CUDA device, so on the CPU the setting is a
-// parsed value; a run's config written before the key existed, and TRPO, keep the eager act
-TEST_CASE("ppo.act_graph: on in ppo.yaml and mtppo.yaml, off for configs without it and TRPO",
+// ppo.act_graph (rl/onpolicy.h), ppo.fused_adam (rl/flat_adam.h) and ppo.bias_grad_gemm
+// (rl/policy.h): on in the shipped configs; a run's config written before a key existed, and
+// TRPO, keep the step they had (act_graph is replayed only on a CUDA device, so on the CPU it is a
+// parsed value)
+TEST_CASE("ppo.act_graph, fused_adam and bias_grad_gemm: on in ppo.yaml and mtppo.yaml, off for "
+          "configs without them and TRPO",
           "[rl][config]") {
-  CHECK(resolve("hand_over").ppo.act_graph);
-  CHECK_FALSE(resolve("hand_over", {"ppo.act_graph=false"}).ppo.act_graph);
+  using Flag = bool rl::PpoConfig::*;
+  const std::vector<std::pair<std::string, Flag>> keys = {
+      {"act_graph", &rl::PpoConfig::act_graph},
+      {"fused_adam", &rl::PpoConfig::fused_adam},
+      {"bias_grad_gemm", &rl::PpoConfig::bias_grad_gemm}};
   const std::string mt =
       rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4", {});
-  CHECK(rl::parse_train_config(mt, "resolved").ppo.act_graph);
-  std::string old = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
-  const auto key = old.find("act_graph:");
-  REQUIRE(key != std::string::npos);
-  const auto line = old.rfind('\n', key) + 1;  // the key's whole line
-  old.erase(line, old.find('\n', key) - line + 1);
-  REQUIRE(old.find("act_graph") == std::string::npos);
-  const auto c = rl::parse_train_config(old, "run-config.yaml");
-  CHECK_FALSE(c.ppo.act_graph);
-  CHECK(c.ppo.cuda_graph);  // the rest as before
-  CHECK_FALSE(rl::parse_train_config(
-                  rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", "hand_over", {}),
-                  "resolved")
-                  .ppo.act_graph);
-  require_config_error(
-      [] { resolve("hand_over", {"ppo.act_graph=sometimes"}); }, "ppo.act_graph", "true or false",
-      "sometimes");
+  const auto trpo = rl::parse_train_config(
+      rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", "hand_over", {}),
+      "resolved");
+  for (const auto& [key, flag] : keys) {
+    INFO("ppo." << key);
+    CHECK(resolve("hand_over").ppo.*flag);
+    CHECK_FALSE(resolve("hand_over", {"ppo." + key + "=false"}).ppo.*flag);
+    CHECK(rl::parse_train_config(mt, "resolved").ppo.*flag);
+    std::string old =
+        rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
+    const auto at = old.find(key + ":");
+    REQUIRE(at != std::string::npos);
+    const auto line = old.rfind('\n', at) + 1;  // the key's whole line
+    old.erase(line, old.find('\n', at) - line + 1);
+    REQUIRE(old.find(key) == std::string::npos);
+    const auto c = rl::parse_train_config(old, "run-config.yaml");
+    CHECK_FALSE(c.ppo.*flag);
+    CHECK(c.ppo.cuda_graph);  // the rest as before
+    for (const auto& [other, other_flag] : keys)
+      if (other != key) CHECK(c.ppo.*other_flag);
+    CHECK_FALSE(trpo.ppo.*flag);
+    require_config_error([&] { resolve("hand_over", {"ppo." + key + "=sometimes"}); },
+                         "ppo." + key, "true or false", "sometimes");
+  }
 }
 
 TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected and actual",

@@ -307,3 +307,46 @@ TEST_CASE("FlatAdam loads LibTorch Adam's saved state and steps on as that Adam 
     }
   }
 }
+
+// The fused step (LibTorch 2.4 on) against the plain one on two copies of one network: the same
+// parameters and norms within float rounding, the clip binding on even steps, and the gradients
+// autograd's own tensors after a zero_grad() that undefined them. Where this LibTorch has no
+// fused step (Debian 12's 1.13), asking for one gives the plain step, bit for bit.
+TEST_CASE("FlatAdam's fused step equals its plain step, or is the plain step where LibTorch "
+          "lacks it",
+          "[rl][ppo][flat_adam]") {
+  auto plain_net = make_net(3), fused_net = make_net(3);
+  rl::FlatAdam plain(plain_net->parameters(), 1e-3);
+  rl::FlatAdam fused(fused_net->parameters(), 1e-3, 0.9, 0.999, 1e-8, /*fused=*/true);
+  CHECK_FALSE(plain.fused());
+  CHECK(fused.fused() == rl::FlatAdam::fused_available());
+  if (!fused.fused()) WARN("this LibTorch has no fused Adam: the fallback is checked");
+  for (int k = 0; k < 12; ++k) {
+    INFO("step " << k);
+    const auto b = batch_at(k);
+    const double want = flat_step(plain_net, plain, b, lr_at(k), max_norm_at(k));
+    if (k % 2 == 0) REQUIRE(want > max_norm_at(k));
+    fused.set_lr(lr_at(k));
+    fused.zero_grad();
+    for (const auto& p : fused_net->parameters())
+      CHECK(p.grad().defined() == !fused.fused());  // fused: undefined until backward
+    loss_of(fused_net, b).backward();
+    const double got = fused.clip_grad_norm(max_norm_at(k)).item<double>();
+    fused.step();
+    const auto pf = fused_net->parameters(), pp = plain_net->parameters();
+    if (fused.fused()) {
+      CHECK(got == Approx(want).epsilon(1e-6));
+      CHECK(test::max_param_diff(*fused_net, *plain_net) < 1e-6);
+      for (size_t j = 0; j < pf.size(); ++j)  // the clipped gradients, as the plain clip's
+        CHECK(torch::allclose(pf[j].grad(), pp[j].grad(), 1e-5, 1e-7));
+    } else {
+      for (size_t j = 0; j < pf.size(); ++j) CHECK(torch::equal(pf[j].grad(), pp[j].grad()));
+      CHECK(got == want);
+      CHECK(test::max_param_diff(*fused_net, *plain_net) == 0);
+    }
+  }
+  CHECK(fused.steps() == 12);
+  // the steps moved the weights far beyond the bound above
+  auto fresh = make_net(3);
+  CHECK(test::max_param_diff(*fused_net, *fresh) > 1e-3);
+}

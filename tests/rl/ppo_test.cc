@@ -679,3 +679,83 @@ TEST_CASE("a PPO run saved and loaded continues as the unbroken run", "[rl][ppo]
   const auto obs = torch::randn({N, D});
   CHECK(torch::equal(a->actor(obs), b->actor(obs)));
 }
+
+// rl::linear_gemm_bias_grad against LibTorch's linear: the same output and gradients (the bias's
+// a product with a row of ones instead of a sum over the rows), for inputs of any leading shape,
+// with and without the input's gradient, and under bfloat16 autocast in autocast's types.
+TEST_CASE("linear_gemm_bias_grad gives linear's output and gradients", "[rl][ppo]") {
+  torch::manual_seed(31);
+  const auto w0 = torch::randn({6, 5}), b0 = torch::randn({6});
+  const auto x0 = torch::randn({3, 7, 5});
+  auto run = [&](bool gemm, bool x_grad) {
+    auto w = w0.clone().requires_grad_(true), b = b0.clone().requires_grad_(true);
+    auto x = x0.clone().requires_grad_(x_grad);
+    auto y = gemm ? rl::linear_gemm_bias_grad(x, w, b) : torch::nn::functional::linear(x, w, b);
+    // a loss whose gradient differs from row to row
+    (y * torch::arange(y.numel()).reshape(y.sizes()).sin()).sum().backward();
+    return std::vector<torch::Tensor>{y.detach(), w.grad(), b.grad(), x.grad()};
+  };
+  for (bool x_grad : {true, false}) {
+    INFO("input gradient " << x_grad);
+    const auto want = run(false, x_grad), got = run(true, x_grad);
+    CHECK(got[0].sizes() == torch::IntArrayRef({3, 7, 6}));
+    for (int k = 0; k < 3; ++k) CHECK(torch::allclose(got[k], want[k], 1e-5, 1e-5));
+    CHECK(got[3].defined() == x_grad);
+    if (x_grad) CHECK(torch::allclose(got[3], want[3], 1e-5, 1e-5));
+    CHECK(got[2].abs().sum().item<double>() > 1);  // the bias gradient is not trivially zero
+  }
+  // under bfloat16 autocast: a bfloat16 output, float32 gradients, near linear's in autocast
+  auto run_bf16 = [&](bool gemm) {
+    auto w = w0.clone().requires_grad_(true), b = b0.clone().requires_grad_(true);
+    auto x = x0.clone().requires_grad_(true);
+    torch::Tensor y;
+    {
+      rl::Bf16Autocast bf16(torch::kCPU, true);
+      y = gemm ? rl::linear_gemm_bias_grad(x, w, b) : torch::nn::functional::linear(x, w, b);
+    }
+    (y.to(torch::kFloat32) * torch::arange(y.numel()).reshape(y.sizes()).sin()).sum().backward();
+    return std::vector<torch::Tensor>{y.detach(), w.grad(), b.grad(), x.grad()};
+  };
+  const auto want = run_bf16(false), got = run_bf16(true);
+  CHECK(got[0].scalar_type() == torch::kBFloat16);
+  for (int k = 1; k < 4; ++k) CHECK(got[k].scalar_type() == torch::kFloat32);
+  for (int k = 0; k < 4; ++k)
+    CHECK(torch::allclose(got[k].to(torch::kFloat32), want[k].to(torch::kFloat32), 2e-2, 5e-2));
+}
+
+// (fused_adam too: FlatAdam's fused step where this LibTorch has it, tests/rl/flat_adam_test.cc)
+TEST_CASE("PPO with bias_grad_gemm and fused_adam gives the plain update, padded or not",
+          "[rl][ppo]") {
+  const int64_t T = 4, N = 64, D = 5, A = 3;
+  for (bool align : {false, true}) {
+    INFO("align_widths " << align);
+    rl::PpoConfig c = small_update_config();
+    c.align_widths = align;
+    rl::PpoConfig cg = c;
+    cg.bias_grad_gemm = true;
+    cg.fused_adam = true;
+    torch::manual_seed(29);
+    rl::ActorCritic plain(D, A, c);
+    torch::manual_seed(29);
+    rl::ActorCritic gemm(D, A, cg);
+    // the same parameters by name; every layer now takes the matrix-product bias gradient
+    const auto pp = plain->named_parameters(), pg = gemm->named_parameters();
+    REQUIRE(pp.size() == pg.size());
+    for (const auto& kv : pp) CHECK(torch::equal(pg[kv.key()], kv.value()));
+    for (const auto& m : gemm->modules(false))
+      CHECK_FALSE(dynamic_cast<torch::nn::LinearImpl*>(m.get()));
+    const auto before = test::param_copies(*plain);
+    rl::Ppo ppo_plain(plain, c), ppo_gemm(gemm, cg);
+    const auto [st_plain, st_gemm] = twin_updates(ppo_plain, ppo_gemm, plain, T, N, D, A);
+    CHECK(st_gemm.policy_loss == Approx(st_plain.policy_loss).margin(1e-5));
+    CHECK(st_gemm.value_loss == Approx(st_plain.value_loss).epsilon(1e-5));
+    double moved = 0;
+    const auto pl = plain->parameters();
+    for (const auto& kv : pp) {
+      INFO(kv.key());
+      CHECK(torch::allclose(pg[kv.key()], kv.value(), 1e-5, 1e-6));
+    }
+    for (size_t k = 0; k < pl.size(); ++k) moved += (pl[k] - before[k]).abs().sum().item<double>();
+    CHECK(moved > 1e-2);
+  }
+}
