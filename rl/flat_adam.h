@@ -13,7 +13,7 @@
 //   m = b1 m + (1 - b1) g,  v = b2 v + (1 - b2) g^2,
 //   p -= (lr / (1 - b1^t)) m / (sqrt(v) / sqrt(1 - b2^t) + eps)
 // with one difference: a parameter whose gradient is undefined at a step counts as having a zero
-// gradient (LibTorch's Adam skips it); zero_grad() never undefines a gradient.
+// gradient (LibTorch's Adam skips it); the plain zero_grad() never undefines a gradient.
 //
 // Fused (`fused` true, where LibTorch has `_fused_adam_` with a device learning rate: 2.4 on;
 // fused_available() says): the same math in one multi-tensor kernel that reads each value,
