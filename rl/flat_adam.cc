@@ -145,20 +145,21 @@ void FlatAdam::fused_step() {
                    at::TensorList(), steps, lr32_, beta1_, beta2_, /*weight_decay=*/0.0, eps_,
                    /*amsgrad=*/false, /*maximize=*/false, divisor, std::nullopt);
   clip_divisor_ = torch::Tensor();
+#else
+  TORCH_CHECK(false, "FlatAdam: this LibTorch has no fused step (fused_available() is false)");
 #endif
 }
 
 void FlatAdam::step() {
   rebind();
   torch::NoGradGuard ng;
-  if (fused_) {
-    step_.add_(1);
-    fused_step();
-    return;
-  }
   // the step count and the bias corrections on the device (float64, as LibTorch's Adam computes
   // them on the host), so that a CUDA graph replaying this step counts on
   step_.add_(1);
+  if (fused_) {
+    fused_step();
+    return;
+  }
   const auto bias_correction1 = 1 - torch::pow(beta1_, step_);
   const auto bias_correction2 = 1 - torch::pow(beta2_, step_);
   exp_avg_.mul_(beta1_).add_(grads_, 1 - beta1_);
