@@ -281,8 +281,8 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
                                         "accept_ratio", "step_fraction"}
              : std::vector<std::string>{"clip", "schedule", "desired_kl", "entropy_coef",
                                         "clip_value_loss", "value_clip", "cuda_graph",
-                                        "act_graph", "bf16", "align_widths", "fused_adam",
-                                        "bias_grad_gemm", "advantage_norm"};
+                                        "act_graph", "bf16", "bf16_act", "align_widths",
+                                        "fused_adam", "bias_grad_gemm", "advantage_norm"};
     keys.insert(keys.end(), own.begin(), own.end());
     p.allow_keys(keys);
     auto& o = c.ppo;
@@ -335,6 +335,7 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();
       if (auto g = p.maybe("act_graph")) o.act_graph = g->as<bool>();  // absent before it existed
       if (auto b = p.maybe("bf16")) o.bf16 = b->as<bool>();  // absent before it existed
+      if (auto b = p.maybe("bf16_act")) o.bf16_act = b->as<bool>();  // the same
       if (auto b = p.maybe("align_widths")) o.align_widths = b->as<bool>();  // the same
       if (auto b = p.maybe("fused_adam")) o.fused_adam = b->as<bool>();      // the same
       if (auto b = p.maybe("bias_grad_gemm")) o.bias_grad_gemm = b->as<bool>();  // the same

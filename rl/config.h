@@ -45,6 +45,10 @@ struct PpoConfig {
   // PPO and MTPPO: the minibatch step's network products in bfloat16 (rl/autocast.h); the
   // parameters, gradients, optimizer and losses stay float32
   bool bf16 = false;
+  // PPO and MTPPO: the rollout's network products (acting, and the critic's bootstrap values) in
+  // bfloat16 (rl/onpolicy.h); the rollout's actions, means, values and log-probabilities stay
+  // float32; false where a run's config predates it
+  bool bf16_act = false;
   // PPO and MTPPO: the actor's and critic's layers of a width not a multiple of 8 (the
   // observation's, the action's, the value's) padded with zeros to one (rl/policy.h, PaddedLinear)
   bool align_widths = false;

@@ -2,6 +2,7 @@
 
 #include <vector>
 
+#include "rl/autocast.h"
 #include "rl/checkpoint.h"
 
 #ifdef BIDEX_TORCH_CUDA
@@ -51,8 +52,12 @@ void GaussianOnPolicy::act_into_rollout(const torch::Tensor& obs) {
   }
   if (c_.obs_norm) model_->obs_norm()->update(obs);
   auto nobs = model_->normalize_obs(obs);
-  auto mu = model_->mean(nobs);
-  auto v = model_->value(nobs);
+  torch::Tensor mu, v;
+  {
+    Bf16Autocast bf16(nobs.device().type(), c_.bf16_act);  // the networks only
+    mu = model_->mean(nobs).to(torch::kFloat32);
+    v = model_->value(nobs);
+  }
   auto a = mu + std_ * torch::randn_like(mu);
   ro_->nobs[t_].copy_(nobs);
   ro_->actions[t_].copy_(a);
@@ -80,14 +85,20 @@ void GaussianOnPolicy::observe(const Transition& t) {
   ro_->dones[t_].copy_(t.done);
   // time limits: bootstrap from the critic's value of the final observation
   if (t.final_ids.numel() > 0)
-    rew.index_add_(0, t.final_ids, c_.gamma * model_->value(model_->normalize_obs(t.final_obs)));
+    rew.index_add_(0, t.final_ids, c_.gamma * rollout_value(t.final_obs));
   t_ += 1;
 }
 
 torch::Tensor GaussianOnPolicy::finish_rollout(const torch::Tensor& obs) {
   torch::NoGradGuard ng;
   t_ = 0;
-  return model_->value(model_->normalize_obs(obs));
+  return rollout_value(obs);
+}
+
+torch::Tensor GaussianOnPolicy::rollout_value(const torch::Tensor& obs) {
+  const auto nobs = model_->normalize_obs(obs);
+  Bf16Autocast bf16(nobs.device().type(), c_.bf16_act);
+  return model_->value(nobs);
 }
 
 double GaussianOnPolicy::action_std() const {

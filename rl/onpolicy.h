@@ -40,6 +40,9 @@ class GaussianOnPolicy : public Algorithm {
   // act()'s work: normalises `obs` (updating the normaliser), samples the actions and writes the
   // rollout's rows t_; the rows' addresses depend on t_ only, so that a CUDA graph can replay it
   void act_into_rollout(const torch::Tensor& obs);
+  // the critic's value of raw observations, as the rollout records it (ppo.bf16_act: its products
+  // in bfloat16), float32
+  torch::Tensor rollout_value(const torch::Tensor& obs);
   // act_into_rollout replayed as one CUDA graph per rollout step (ppo.act_graph, GraphedSteps of
   // rl/cuda_graph.h): the first rollout runs eagerly on side streams, the second captures there
   struct ActGraphs;

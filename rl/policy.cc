@@ -250,7 +250,7 @@ torch::Tensor ActorCriticImpl::value_groups(const torch::Tensor& nobs) const {
 }
 
 torch::Tensor ActorCriticImpl::value(const torch::Tensor& nobs) {
-  auto v = raw_value(nobs);
+  auto v = raw_value(nobs).to(nobs.scalar_type());  // autocast's product back in the input's type
   return use_value_norm_ ? value_norm_->denormalize(v, value_groups(nobs)) : v;
 }
 

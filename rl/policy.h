@@ -133,7 +133,8 @@ class ActorCriticImpl : public torch::nn::Module {
 
   // Observations as the environment gives them (normalised inside when obs_norm is on).
   torch::Tensor normalize_obs(const torch::Tensor& obs) const;
-  // On normalised observations: the action mean, and the value in return units.
+  // On normalised observations: the action mean, and the value in return units (in the
+  // observations' type, also where autocast runs the critic's products in another).
   torch::Tensor mean(const torch::Tensor& nobs);
   torch::Tensor value(const torch::Tensor& nobs);
   // The critic's raw output (normalised units when value_norm is on).

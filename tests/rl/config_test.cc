@@ -145,6 +145,36 @@ TEST_CASE("ppo.act_graph, fused_adam and bias_grad_gemm: on in ppo.yaml and mtpp
   }
 }
 
+// ppo.bf16_act (rl/onpolicy.h): off in the shipped configs, as ppo.bf16 is; on by override for
+// PPO and MTPPO; off where a run's config predates it; not a key of TRPO's section
+TEST_CASE("ppo.bf16_act: off by default, on by override, off for configs without it",
+          "[rl][config]") {
+  CHECK_FALSE(resolve("hand_over").ppo.bf16_act);
+  CHECK(resolve("hand_over", {"ppo.bf16_act=true"}).ppo.bf16_act);
+  const auto mt = [](std::vector<std::string> o) {
+    return rl::parse_train_config(
+        rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4", o), "x.yaml");
+  };
+  CHECK_FALSE(mt({}).ppo.bf16_act);
+  CHECK(mt({"ppo.bf16_act=true"}).ppo.bf16_act);
+  std::string on = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over",
+                                          {"ppo.bf16_act=true"});
+  CHECK(rl::parse_train_config(on, "run-config.yaml").ppo.bf16_act);
+  const auto at = on.find("bf16_act:");
+  REQUIRE(at != std::string::npos);
+  const auto line = on.rfind('\n', at) + 1;
+  on.erase(line, on.find('\n', at) - line + 1);
+  CHECK_FALSE(rl::parse_train_config(on, "run-config.yaml").ppo.bf16_act);
+  require_config_error([] { resolve("hand_over", {"ppo.bf16_act=half"}); }, "ppo.bf16_act",
+                       "true or false", "half");
+  require_config_error(
+      [] {
+        rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", "hand_over",
+                               {"trpo.bf16_act=true"});
+      },
+      "trpo.bf16_act", "a known key", "bf16_act");
+}
+
 TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected and actual",
           "[rl][config]") {
   const std::string file = rl::default_train_config("ppo");

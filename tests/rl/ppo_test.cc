@@ -759,3 +759,65 @@ TEST_CASE("PPO with bias_grad_gemm and fused_adam gives the plain update, padded
     CHECK(moved > 1e-2);
   }
 }
+
+// ppo.bf16_act: the rollout's actor and critic run their products in bfloat16 (acting, the
+// bootstrap of cut episodes and of the rollout's end), the recorded rows stay float32. Two PPO
+// runs from one seed with the same observations, rewards, noise and cut episodes: the actions
+// differ by the mean's rounding only; the first update, whose networks are still the same, sees
+// other values (so the critic's products were in bfloat16 too), within rounding of float32's.
+TEST_CASE("PPO's act step in bfloat16 records float32 rows within rounding of float32's",
+          "[rl][ppo]") {
+  rl::TrainConfig tc;
+  tc.ppo.hidden = {32, 32};
+  tc.ppo.horizon = 4;
+  tc.ppo.epochs = 1;
+  tc.ppo.minibatches = 1;
+  tc.ppo.obs_norm = true;
+  tc.ppo.value_norm = true;
+  const int64_t N = 64, D = 5, A = 3;
+  struct Run {
+    std::vector<torch::Tensor> actions;
+    std::vector<double> metrics;
+  };
+  auto run = [&](bool bf16_act) {
+    rl::TrainConfig c = tc;
+    c.ppo.bf16_act = bf16_act;
+    torch::manual_seed(41);
+    auto alg = rl::make_algorithm("ppo", c, D, A, N, torch::kCPU);
+    Run r;
+    for (int t = 0; t < c.ppo.horizon; ++t) {
+      torch::manual_seed(100 + t);
+      const auto obs = 3.0 * torch::randn({N, D}) + 1.0;
+      torch::manual_seed(200 + t);  // the same noise for both runs
+      r.actions.push_back(alg->act(obs).clone());
+      rl::Transition tr;
+      tr.obs = torch::randn({N, D});
+      tr.reward = torch::randn({N}) + 2.0;
+      tr.done = torch::zeros({N});
+      tr.done.narrow(0, 8 * t, 8).fill_(1.0);
+      tr.final_ids = torch::arange(8 * t, 8 * t + 8);  // cut episodes: bootstrapped
+      tr.final_obs = torch::randn({8, D});
+      alg->observe(tr);
+    }
+    torch::manual_seed(300);
+    r.metrics = alg->update(torch::randn({N, D}));
+    return r;
+  };
+  const Run full = run(false), low = run(true);
+  double gap = 0;
+  for (size_t t = 0; t < full.actions.size(); ++t) {
+    INFO("step " << t);
+    CHECK(low.actions[t].scalar_type() == torch::kFloat32);
+    const auto d = (low.actions[t] - full.actions[t]).abs().max().item<double>();
+    gap = std::max(gap, d);
+    // the output layer's gain keeps the mean small: bfloat16's 8 bits round it by far less
+    CHECK(d < 0.01);
+  }
+  CHECK(gap > 0);
+  // policy_loss, value_loss, entropy, kl (PPO's metric_names)
+  INFO("value loss " << full.metrics[1] << " against " << low.metrics[1]);
+  CHECK(low.metrics[1] != full.metrics[1]);
+  CHECK(low.metrics[1] == Approx(full.metrics[1]).epsilon(0.05));
+  CHECK(low.metrics[0] == Approx(full.metrics[0]).margin(0.02));
+  CHECK(low.metrics[2] == full.metrics[2]);  // the log-std is the same
+}
