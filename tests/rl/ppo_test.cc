@@ -11,6 +11,7 @@
 
 #include "rl/algorithm.h"
 #include "rl/autocast.h"
+#include "rl/onpolicy.h"
 #include "rl/policy.h"
 #include "rl/ppo.h"
 
@@ -760,64 +761,106 @@ TEST_CASE("PPO with bias_grad_gemm and fused_adam gives the plain update, padded
   }
 }
 
-// ppo.bf16_act: the rollout's actor and critic run their products in bfloat16 (acting, the
-// bootstrap of cut episodes and of the rollout's end), the recorded rows stay float32. Two PPO
-// runs from one seed with the same observations, rewards, noise and cut episodes: the actions
-// differ by the mean's rounding only; the first update, whose networks are still the same, sees
-// other values (so the critic's products were in bfloat16 too), within rounding of float32's.
-TEST_CASE("PPO's act step in bfloat16 records float32 rows within rounding of float32's",
-          "[rl][ppo]") {
-  rl::TrainConfig tc;
-  tc.ppo.hidden = {32, 32};
-  tc.ppo.horizon = 4;
-  tc.ppo.epochs = 1;
-  tc.ppo.minibatches = 1;
-  tc.ppo.obs_norm = true;
-  tc.ppo.value_norm = true;
-  const int64_t N = 64, D = 5, A = 3;
-  struct Run {
-    std::vector<torch::Tensor> actions;
-    std::vector<double> metrics;
-  };
-  auto run = [&](bool bf16_act) {
-    rl::TrainConfig c = tc;
-    c.ppo.bf16_act = bf16_act;
-    torch::manual_seed(41);
-    auto alg = rl::make_algorithm("ppo", c, D, A, N, torch::kCPU);
-    Run r;
-    for (int t = 0; t < c.ppo.horizon; ++t) {
-      torch::manual_seed(100 + t);
-      const auto obs = 3.0 * torch::randn({N, D}) + 1.0;
-      torch::manual_seed(200 + t);  // the same noise for both runs
-      r.actions.push_back(alg->act(obs).clone());
-      rl::Transition tr;
-      tr.obs = torch::randn({N, D});
-      tr.reward = torch::randn({N}) + 2.0;
-      tr.done = torch::zeros({N});
-      tr.done.narrow(0, 8 * t, 8).fill_(1.0);
-      tr.final_ids = torch::arange(8 * t, 8 * t + 8);  // cut episodes: bootstrapped
-      tr.final_obs = torch::randn({8, D});
-      alg->observe(tr);
-    }
-    torch::manual_seed(300);
-    r.metrics = alg->update(torch::randn({N, D}));
-    return r;
-  };
-  const Run full = run(false), low = run(true);
-  double gap = 0;
-  for (size_t t = 0; t < full.actions.size(); ++t) {
-    INFO("step " << t);
-    CHECK(low.actions[t].scalar_type() == torch::kFloat32);
-    const auto d = (low.actions[t] - full.actions[t]).abs().max().item<double>();
-    gap = std::max(gap, d);
-    // the output layer's gain keeps the mean small: bfloat16's 8 bits round it by far less
-    CHECK(d < 0.01);
+namespace {
+
+// GaussianOnPolicy's acting and recording alone, its rollout and bootstrap open to the test.
+class ActProbe : public rl::GaussianOnPolicy {
+ public:
+  using GaussianOnPolicy::GaussianOnPolicy;
+  std::vector<double> update(const torch::Tensor&) override { return {}; }
+  const std::vector<std::string>& metric_names() const override {
+    static const std::vector<std::string> none;
+    return none;
   }
-  CHECK(gap > 0);
-  // policy_loss, value_loss, entropy, kl (PPO's metric_names)
-  INFO("value loss " << full.metrics[1] << " against " << low.metrics[1]);
-  CHECK(low.metrics[1] != full.metrics[1]);
-  CHECK(low.metrics[1] == Approx(full.metrics[1]).epsilon(0.05));
-  CHECK(low.metrics[0] == Approx(full.metrics[0]).margin(0.02));
-  CHECK(low.metrics[2] == full.metrics[2]);  // the log-std is the same
+  void save(torch::serialize::OutputArchive&) override {}
+  void load(torch::serialize::InputArchive&, const std::string&) override {}
+  rl::ActorCritic& model() { return model_; }
+  rl::Rollout& rollout() { return *ro_; }
+  torch::Tensor finish(const torch::Tensor& obs) { return finish_rollout(obs); }
+};
+
+}  // namespace
+
+// ppo.bf16_act: the rollout's actor and critic run their products in bfloat16 (acting, the
+// bootstrap of cut episodes and of the rollout's end) and the rows stay float32. Each recorded
+// row equals the networks' output computed by hand under bfloat16 autocast, and differs from
+// float32's by rounding only; with the setting off, the rows are float32's.
+TEST_CASE("PPO's act step in bfloat16 records float32 rows of bfloat16 products", "[rl][ppo]") {
+  const int64_t N = 64, D = 5, A = 3, K = 8;
+  for (bool low : {false, true}) {
+    INFO("bf16_act " << low);
+    rl::PpoConfig c;
+    c.hidden = {32, 32};
+    c.horizon = 2;
+    c.value_norm = true;
+    c.bf16_act = low;
+    torch::manual_seed(41);
+    ActProbe probe(c, D, A, N, torch::kCPU);
+    auto& m = probe.model();
+    // the value normaliser away from (0, 1), so that its denormalising shows in the values
+    m->value_norm()->update(40.0 * torch::randn({256, 1}) + 30.0);
+    torch::manual_seed(42);
+    const auto obs = 3.0 * torch::randn({N, D}) + 1.0, final_obs = torch::randn({K, D}),
+               end_obs = torch::randn({N, D}), reward = torch::randn({N});
+    torch::manual_seed(7);
+    const auto a = probe.act(obs);
+    // by hand: the normaliser has seen obs; the same noise
+    torch::NoGradGuard ng;
+    auto products = [&](const auto& f) {
+      rl::Bf16Autocast bf16(torch::kCPU, low);
+      return f();
+    };
+    const auto nobs = m->normalize_obs(obs);
+    const auto mu = products([&] { return m->mean(nobs).to(torch::kFloat32); });
+    const auto v = products([&] { return m->value(nobs); });
+    torch::manual_seed(7);
+    const auto want_a = mu + torch::exp(m->log_std()) * torch::randn_like(mu);
+    auto& ro = probe.rollout();
+    for (const auto& row : {ro.mu[0], ro.values[0], ro.actions[0], ro.logp[0]})
+      CHECK(row.scalar_type() == torch::kFloat32);
+    CHECK(torch::allclose(ro.mu[0], mu, 1e-6, 1e-7));
+    CHECK(torch::allclose(ro.values[0], v, 1e-6, 1e-5));
+    CHECK(torch::allclose(a, want_a, 1e-6, 1e-7));
+    CHECK(torch::allclose(ro.logp[0], rl::gaussian_log_prob(want_a, mu, m->log_std()), 1e-6,
+                          1e-5));
+    // bfloat16's rounding, or none: the float32 products' distance from the rows
+    const auto mu32 = m->mean(nobs), v32 = m->value(nobs);
+    const double mu_gap = (ro.mu[0] - mu32).abs().max().item<double>();
+    const double v_gap = (ro.values[0] - v32).abs().max().item<double>();
+    INFO("mean's gap " << mu_gap << ", value's gap " << v_gap);
+    if (low) {
+      CHECK(mu_gap > 0);
+      CHECK(mu_gap < 0.01);  // the output layer's small gain keeps the mean small
+      CHECK(v_gap > 0);
+      CHECK(v_gap < 0.02 * v32.abs().max().item<double>());
+    } else {
+      CHECK(mu_gap == 0);
+      CHECK(v_gap == 0);
+    }
+    // a cut episode's reward is bootstrapped from the value as the rollout computes it
+    rl::Transition tr;
+    tr.obs = end_obs;
+    tr.reward = reward;
+    tr.done = torch::zeros({N});
+    tr.final_ids = torch::arange(K);
+    tr.final_obs = final_obs;
+    probe.observe(tr);
+    const auto vf = products([&] { return m->value(m->normalize_obs(final_obs)); });
+    const auto vf32 = m->value(m->normalize_obs(final_obs));
+    const auto want_r = reward.clone().narrow(0, 0, K).add(c.gamma * vf);
+    CHECK(torch::allclose(ro.rewards[0].narrow(0, 0, K), want_r, 1e-6, 1e-5));
+    CHECK(torch::equal(ro.rewards[0].narrow(0, K, N - K), reward.narrow(0, K, N - K)));
+    // and the value after the rollout
+    const auto vend = products([&] { return m->value(m->normalize_obs(end_obs)); });
+    const auto end = probe.finish(end_obs);
+    CHECK(end.scalar_type() == torch::kFloat32);
+    CHECK(torch::allclose(end, vend, 1e-6, 1e-5));
+    const double boot_gap = (ro.rewards[0].narrow(0, 0, K) - (reward.narrow(0, 0, K) +
+                                                              c.gamma * vf32)).abs().max()
+                                .item<double>();
+    const double end_gap = (end - m->value(m->normalize_obs(end_obs))).abs().max().item<double>();
+    INFO("bootstrap's gap " << boot_gap << ", end value's gap " << end_gap);
+    CHECK((low ? boot_gap > 0 : boot_gap == 0));
+    CHECK((low ? end_gap > 0 : end_gap == 0));
+  }
 }
