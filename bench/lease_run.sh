@@ -20,6 +20,10 @@
 #       out, split once a machine; at most four parts a call come back); `build` unpacks those
 #       parts into ~/.cache before it starts when PARTS holds them beside the bundle's
 # BIDEX_COMMIT (the commit of the results) is passed on to COMMAND.
+# A machine goes back after 30 s without a call (idle_release_s), with everything on it: while
+# COMMAND runs, send the next waiting call as soon as the last returns (local work beside it only
+# if it ends first), and let every waiting call pack the runs finished so far into $OUT, so that a
+# lost machine loses only the run in progress (bench/results/learner-equiv-h200/lease29/lease.txt).
 set -uo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 stage=${1:-}
