@@ -806,13 +806,17 @@ TEST_CASE("PPO's act step in bfloat16 records float32 rows of bfloat16 products"
     const auto a = probe.act(obs);
     // by hand: the normaliser has seen obs; the same noise
     torch::NoGradGuard ng;
-    auto products = [&](const auto& f) {
-      rl::Bf16Autocast bf16(torch::kCPU, low);
-      return f();
-    };
     const auto nobs = m->normalize_obs(obs);
-    const auto mu = products([&] { return m->mean(nobs).to(torch::kFloat32); });
-    const auto v = products([&] { return m->value(nobs); });
+    // the actor's mean, and the critic's value of raw observations, with products in bfloat16
+    auto mean_of = [&](bool bf16) {
+      rl::Bf16Autocast scope(torch::kCPU, bf16);
+      return m->mean(nobs).to(torch::kFloat32);
+    };
+    auto value_of = [&](const torch::Tensor& x, bool bf16) {
+      rl::Bf16Autocast scope(torch::kCPU, bf16);
+      return m->value(m->normalize_obs(x));
+    };
+    const auto mu = mean_of(low), v = value_of(obs, low);
     torch::manual_seed(7);
     const auto want_a = mu + torch::exp(m->log_std()) * torch::randn_like(mu);
     auto& ro = probe.rollout();
@@ -824,7 +828,7 @@ TEST_CASE("PPO's act step in bfloat16 records float32 rows of bfloat16 products"
     CHECK(torch::allclose(ro.logp[0], rl::gaussian_log_prob(want_a, mu, m->log_std()), 1e-6,
                           1e-5));
     // bfloat16's rounding, or none: the float32 products' distance from the rows
-    const auto mu32 = m->mean(nobs), v32 = m->value(nobs);
+    const auto mu32 = mean_of(false), v32 = value_of(obs, false);
     const double mu_gap = (ro.mu[0] - mu32).abs().max().item<double>();
     const double v_gap = (ro.values[0] - v32).abs().max().item<double>();
     INFO("mean's gap " << mu_gap << ", value's gap " << v_gap);
@@ -845,20 +849,19 @@ TEST_CASE("PPO's act step in bfloat16 records float32 rows of bfloat16 products"
     tr.final_ids = torch::arange(K);
     tr.final_obs = final_obs;
     probe.observe(tr);
-    const auto vf = products([&] { return m->value(m->normalize_obs(final_obs)); });
-    const auto vf32 = m->value(m->normalize_obs(final_obs));
+    const auto vf = value_of(final_obs, low), vf32 = value_of(final_obs, false);
     const auto want_r = reward.clone().narrow(0, 0, K).add(c.gamma * vf);
     CHECK(torch::allclose(ro.rewards[0].narrow(0, 0, K), want_r, 1e-6, 1e-5));
     CHECK(torch::equal(ro.rewards[0].narrow(0, K, N - K), reward.narrow(0, K, N - K)));
     // and the value after the rollout
-    const auto vend = products([&] { return m->value(m->normalize_obs(end_obs)); });
+    const auto vend = value_of(end_obs, low);
     const auto end = probe.finish(end_obs);
     CHECK(end.scalar_type() == torch::kFloat32);
     CHECK(torch::allclose(end, vend, 1e-6, 1e-5));
     const double boot_gap = (ro.rewards[0].narrow(0, 0, K) - (reward.narrow(0, 0, K) +
                                                               c.gamma * vf32)).abs().max()
                                 .item<double>();
-    const double end_gap = (end - m->value(m->normalize_obs(end_obs))).abs().max().item<double>();
+    const double end_gap = (end - value_of(end_obs, false)).abs().max().item<double>();
     INFO("bootstrap's gap " << boot_gap << ", end value's gap " << end_gap);
     CHECK((low ? boot_gap > 0 : boot_gap == 0));
     CHECK((low ? end_gap > 0 : end_gap == 0));
