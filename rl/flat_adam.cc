@@ -73,6 +73,7 @@ FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, d
 
 void FlatAdam::rebind() {
   torch::NoGradGuard ng;
+  bool moved = false;
   for (size_t k = 0; k < params_.size(); ++k) {
     auto& p = params_[k];
     const auto& values = value_views_[k];
@@ -80,6 +81,7 @@ void FlatAdam::rebind() {
       check_fits(p, values, k, "values");
       values.copy_(p.detach());
       p.set_data(values);
+      moved = true;
     }
     if (fused_) continue;  // its gradients stay where autograd puts them
     // autograd accumulates into a defined gradient in place, so a bound one stays bound
@@ -94,6 +96,44 @@ void FlatAdam::rebind() {
       g = grad;
     }
   }
+  if (moved) refresh_copy();
+}
+
+void FlatAdam::keep_copy(torch::ScalarType type) {
+  if (copy_.defined() && copy_.scalar_type() == type) return;
+  copy_ = torch::empty(values_.sizes(), values_.options().dtype(type));
+  copy_views_.clear();
+  for (const auto& v : value_views_)
+    copy_views_.push_back(
+        copy_.narrow(0, v.storage_offset() - values_.storage_offset(), v.numel()).view(v.sizes()));
+  refresh_copy();
+}
+
+void FlatAdam::refresh_copy() {
+  torch::NoGradGuard ng;
+  if (copy_.defined()) copy_.copy_(values_);
+}
+
+torch::Tensor FlatAdam::copy_of(const torch::Tensor& p, torch::ScalarType type) const {
+  if (!copy_.defined() || copy_.scalar_type() != type) return {};
+  for (size_t k = 0; k < params_.size(); ++k)
+    if (p.is_same(params_[k]))
+      return p.data_ptr() == value_views_[k].data_ptr() ? copy_views_[k] : torch::Tensor();
+  return {};
+}
+
+namespace {
+thread_local const FlatAdam* active_copies = nullptr;
+}  // namespace
+
+FlatAdam::CopyScope::CopyScope(const FlatAdam& opt) : outer_(active_copies) {
+  active_copies = &opt;
+}
+
+FlatAdam::CopyScope::~CopyScope() { active_copies = outer_; }
+
+torch::Tensor FlatAdam::weight_copy(const torch::Tensor& p, torch::ScalarType type) {
+  return active_copies ? active_copies->copy_of(p, type) : torch::Tensor();
 }
 
 void FlatAdam::zero_grad() {
@@ -158,6 +198,7 @@ void FlatAdam::step() {
   step_.add_(1);
   if (fused_) {
     fused_step();
+    refresh_copy();
     return;
   }
   const auto bias_correction1 = 1 - torch::pow(beta1_, step_);
@@ -167,6 +208,7 @@ void FlatAdam::step() {
   const auto denom = (exp_avg_sq_.sqrt() / bias_correction2.sqrt()).add_(eps_);
   // addcdiv_ takes its factor from the host only: divide, scale by the device's rate, subtract
   values_.sub_((exp_avg_ / denom).mul_(lr_ / bias_correction1));
+  refresh_copy();
 }
 
 double FlatAdam::lr() const { return lr_.item<double>(); }

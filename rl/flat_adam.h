@@ -93,6 +93,32 @@ class FlatAdam {
   // graph's replay of them runs no host code, so call it before replaying.
   void rebind();
 
+  // A copy of the values in a lower type (bfloat16, for autocast's matrix products), kept equal
+  // to the values cast to that type: made here, refreshed by every step() and by every rebind()
+  // that moved a parameter. refresh_copy() refreshes it after the parameters were written in
+  // place by anything else (a load into them, a test). One cast of the flat buffer: a matrix
+  // product then reads its weight's place in the copy instead of casting the weight itself.
+  void keep_copy(torch::ScalarType type);
+  void refresh_copy();
+  // Parameter p's place in the copy, shaped as p; undefined where there is no copy of `type`,
+  // or p is not one of these parameters, or it no longer points into the flat buffer.
+  torch::Tensor copy_of(const torch::Tensor& p, torch::ScalarType type) const;
+
+  // While one lives, copy_of() of this optimiser is what weight_copy() finds on this thread
+  // (the matrix products of rl/policy.h ask it for their weights). Scopes nest.
+  class CopyScope {
+   public:
+    explicit CopyScope(const FlatAdam& opt);
+    ~CopyScope();
+    CopyScope(const CopyScope&) = delete;
+    CopyScope& operator=(const CopyScope&) = delete;
+
+   private:
+    const FlatAdam* outer_;
+  };
+  // The innermost live scope's copy_of(p, type), or undefined where there is none.
+  static torch::Tensor weight_copy(const torch::Tensor& p, torch::ScalarType type);
+
  private:
   // load() of a LibTorch Adam's archive
   void load_libtorch_adam(torch::serialize::InputArchive& archive);
@@ -110,6 +136,9 @@ class FlatAdam {
   // fused: the step count and rate in float32, as the kernel reads them (copied from step_ and
   // lr_ at each step), and the pending clip's divisor (undefined: none)
   torch::Tensor step32_, lr32_, clip_divisor_;
+  // keep_copy(): the values in a lower type, and each parameter's place in it
+  torch::Tensor copy_;
+  std::vector<torch::Tensor> copy_views_;
 };
 
 }  // namespace bidex::rl

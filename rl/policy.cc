@@ -3,7 +3,10 @@
 #include <cmath>
 #include <utility>
 
+#include <ATen/core/dispatch/Dispatcher.h>
+
 #include "rl/autocast.h"
+#include "rl/flat_adam.h"
 
 namespace bidex::rl {
 
@@ -130,13 +133,35 @@ void push_linear(torch::nn::Sequential& net, int64_t in, int64_t out, double gai
 using torch::autograd::AutogradContext;
 using torch::autograd::variable_list;
 
+// A parameter in the product's type: its place in the optimiser's copy where one is kept in that
+// type (rl/flat_adam.h: one cast of all the weights per step instead of one per weight), else a
+// cast of it.
+torch::Tensor in_type(const torch::Tensor& p, torch::ScalarType type) {
+  if (p.scalar_type() == type) return p;
+  auto copy = FlatAdam::weight_copy(p, type);
+  return copy.defined() ? copy : p.to(type);
+}
+
+// a.mm(b) in `type`: where the product's inputs are of a lower type on a CUDA device and this
+// LibTorch has mm's out_dtype overload (2.8 on), the product writes float32 itself, from its
+// float32 sums, instead of rounding them to the lower type and casting that (one kernel fewer,
+// and no rounding); elsewhere the product and a cast.
+torch::Tensor mm_to(const torch::Tensor& a, const torch::Tensor& b, torch::ScalarType type) {
+  if (a.scalar_type() == type) return a.mm(b);
+  static const auto op = c10::Dispatcher::singleton().findSchema({"aten::mm", "dtype"});
+  if (op && a.is_cuda() && type == torch::kFloat32)
+    return op->typed<at::Tensor(const at::Tensor&, const at::Tensor&, at::ScalarType)>().call(
+        a, b, type);
+  return a.mm(b).to(type);
+}
+
 struct GemmBiasGradLinear : torch::autograd::Function<GemmBiasGradLinear> {
   static torch::Tensor forward(AutogradContext* ctx, const torch::Tensor& x,
                                const torch::Tensor& w, const torch::Tensor& b) {
     const auto type = Bf16Autocast::product_type(x.device().type(), x.scalar_type());
     const auto x2 = x.reshape({-1, x.size(-1)}).to(type);
-    const auto wt = w.to(type);
-    auto y = torch::addmm(b.to(type), x2, wt.t());
+    const auto wt = in_type(w, type), bt = in_type(b, type);
+    auto y = torch::addmm(bt, x2, wt.t());
     ctx->save_for_backward({x2, wt});
     ctx->saved_data["x_grad"] = x.requires_grad();
     ctx->saved_data["x_type"] = static_cast<int64_t>(x.scalar_type());
@@ -161,9 +186,10 @@ struct GemmBiasGradLinear : torch::autograd::Function<GemmBiasGradLinear> {
       shape.back() = wt.size(1);
       dx = dy.mm(wt).view(shape).to(type_of("x_type"));
     }
-    const auto dw = dy.t().mm(x2).to(type_of("w_type"));
-    const auto db = torch::ones({1, dy.size(0)}, dy.options()).mm(dy).view({wt.size(0)});
-    return {dx, dw, db.to(type_of("b_type"))};
+    const auto dw = mm_to(dy.t(), x2, type_of("w_type"));
+    const auto ones = torch::ones({1, dy.size(0)}, dy.options());
+    const auto db = mm_to(ones, dy, type_of("b_type")).view({wt.size(0)});
+    return {dx, dw, db};
   }
 };
 }  // namespace
@@ -185,7 +211,7 @@ PaddedLinearImpl::PaddedLinearImpl(const torch::Tensor& w, const torch::Tensor& 
 }
 
 torch::Tensor PaddedLinearImpl::forward(const torch::Tensor& x) {
-  const int64_t pad = weight.size(1) - in_;
+  const int64_t pad = weight.size(1) - x.size(-1);  // none where the caller padded already
   const auto xp = pad > 0 ? torch::constant_pad_nd(x, {0, pad}) : x;
   auto y = bias_grad_gemm_ ? linear_gemm_bias_grad(xp, weight, bias)
                            : torch::nn::functional::linear(xp, weight, bias);

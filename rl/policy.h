@@ -82,11 +82,12 @@ torch::Tensor linear_gemm_bias_grad(const torch::Tensor& x, const torch::Tensor&
                                     const torch::Tensor& bias);
 
 // A linear layer whose weight and bias carry zero rows and columns up to widths that are
-// multiples of `align`: forward() pads its input with zero columns and returns the first `out`
-// columns, so that the matrix products see rows of aligned length (a GPU's tensor-core kernels
-// want 16-byte rows, 8 bfloat16 or 4 float32 values; an observation of 422 is neither). The padded
-// entries multiply zeros and are sliced away, so they get zero gradients and stay zero under
-// Adam and gradient clipping. Its parameters are named `weight` and `bias`, as torch::nn::Linear's.
+// multiples of `align`: forward() pads its input with zero columns (unless it comes padded) and
+// returns the first `out` columns, so that the matrix products see rows of aligned length (a
+// GPU's tensor-core kernels want 16-byte rows, 8 bfloat16 or 4 float32 values; an observation of
+// 422 is neither). The padded entries multiply zeros and are sliced away, so they get zero
+// gradients and stay zero under Adam and gradient clipping. Its parameters are named `weight` and
+// `bias`, as torch::nn::Linear's.
 class PaddedLinearImpl : public torch::nn::Module {
  public:
   // from a [out, in] layer's weight and bias; `bias_grad_gemm`: forward() is
@@ -152,6 +153,9 @@ class ActorCriticImpl : public torch::nn::Module {
   bool uses_value_norm() const { return use_value_norm_; }
   int64_t obs_dim() const { return obs_dim_; }
   int64_t act_dim() const { return act_dim_; }
+  // The width of the networks' first products: obs_dim with the zero columns that align_widths
+  // pads it with. mean() and raw_value() also take observations already padded so.
+  int64_t input_width() const { return actor_->parameters()[0].size(1); }
 
  private:
   int64_t obs_dim_, act_dim_, value_tasks_;

@@ -109,7 +109,10 @@ Ppo::Ppo(ActorCritic model, const PpoConfig& config, int64_t ntasks)
     : model_(std::move(model)),
       c_(config),
       ntasks_(ntasks),
-      opt_(model_->parameters(), c_.lr, 0.9, 0.999, 1e-8, c_.fused_adam) {}
+      opt_(model_->parameters(), c_.lr, 0.9, 0.999, 1e-8, c_.fused_adam) {
+  // bfloat16 products read their weights from one copy that each step refreshes
+  if (c_.bf16 && c_.bias_grad_gemm) opt_.keep_copy(torch::kBFloat16);
+}
 
 Ppo::~Ppo() = default;
 
@@ -120,6 +123,7 @@ void Ppo::minibatch(const Rows& r, const torch::Tensor& idx, bool timed) {
   auto o = r.nobs.index_select(0, idx);
   auto a = r.actions.index_select(0, idx);
   torch::Tensor mu, v;
+  FlatAdam::CopyScope copies(opt_);
   {
     Bf16Autocast bf16(o.device().type(), c_.bf16);  // the networks only; the losses in float32
     mu = model_->mean(o).to(torch::kFloat32);
@@ -210,6 +214,9 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
     rows.targets = vn->normalize(returns, groups);
     rows.values_old = vn->normalize(values_old, groups);
   }
+  if (c_.bf16) rows.nobs = bf16_input(rows.nobs);
+  opt_.rebind();  // the weights' copy as the parameters are now, however they were written
+  opt_.refresh_copy();
   timer_.mark("prepare");
   const auto device = rows.nobs.device();
   // policy loss, value loss, entropy, clip fraction, KL: summed on the device, read once at the
@@ -239,6 +246,16 @@ UpdateStats Ppo::update(const Rollout& r, const torch::Tensor& last_value) {
   st.lr = m[5];
   timer_.mark("read_stats");
   return st;
+}
+
+const torch::Tensor& Ppo::bf16_input(const torch::Tensor& nobs) {
+  torch::NoGradGuard ng;
+  const int64_t B = nobs.size(0), width = model_->input_width();
+  if (!obs_bf16_.defined() || obs_bf16_.size(0) != B || obs_bf16_.size(1) != width ||
+      obs_bf16_.device() != nobs.device())
+    obs_bf16_ = torch::zeros({B, width}, nobs.options().dtype(torch::kBFloat16));
+  obs_bf16_.narrow(1, 0, nobs.size(1)).copy_(nobs);  // the padding columns stay zero
+  return obs_bf16_;
 }
 
 #ifdef BIDEX_TORCH_CUDA

@@ -93,6 +93,10 @@ class Ppo {
   void epochs(const Rows& rows, int64_t B, const torch::Tensor* idx_buffer);
   // The epochs on the graph's stream, capturing the step once the stream is warm.
   void graphed_epochs(const Rows& rows, int64_t B);
+  // ppo.bf16: the update's observations cast once to the networks' input, bfloat16 and padded
+  // to model->input_width() (one buffer, kept while the rollout's size is), so that no
+  // minibatch casts or pads its rows twice, for the actor and for the critic.
+  const torch::Tensor& bf16_input(const torch::Tensor& nobs);
 
   ActorCritic model_;
   PpoConfig c_;
@@ -101,6 +105,7 @@ class Ppo {
   StageTimer timer_;
   torch::Tensor sums_;  // policy loss, value loss, entropy, clip fraction, KL (float64)
   std::unique_ptr<Graph> graph_;
+  torch::Tensor obs_bf16_;  // bf16_input()'s buffer
 };
 
 // PPO behind the learning core's Algorithm interface (mtppo is the same on a suite's pack):

@@ -350,3 +350,72 @@ TEST_CASE("FlatAdam's fused step equals its plain step, or is the plain step whe
   auto fresh = make_net(3);
   CHECK(test::max_param_diff(*fused_net, *fresh) > 1e-3);
 }
+
+// keep_copy(): the values in bfloat16, equal to the parameters cast, after every plain or fused
+// step, after a rebind of parameters whose storage was replaced, and after refresh_copy() of
+// parameters written in place; copy_of() finds a parameter's place in it, and weight_copy()
+// finds it through the innermost live CopyScope only.
+TEST_CASE("FlatAdam's bfloat16 copy follows the values", "[rl][ppo][flat_adam]") {
+  const auto bf16 = torch::kBFloat16;
+  auto copies_equal = [&](rl::ActorCritic& net, const rl::FlatAdam& opt) {
+    bool same = true;
+    for (const auto& p : net->parameters()) {
+      const auto c = opt.copy_of(p, bf16);
+      same = same && c.defined() && c.sizes() == p.sizes() && torch::equal(c, p.to(bf16));
+    }
+    return same;
+  };
+  for (bool fused : {false, true}) {
+    INFO("fused " << fused);
+    auto net = make_net(3);
+    rl::FlatAdam opt(net->parameters(), 1e-2, 0.9, 0.999, 1e-8, fused);
+    const auto p0 = net->parameters()[0];
+    CHECK_FALSE(opt.copy_of(p0, bf16).defined());  // none kept yet
+    opt.keep_copy(bf16);
+    CHECK(copies_equal(net, opt));
+    CHECK_FALSE(opt.copy_of(p0, torch::kHalf).defined());           // not of that type
+    CHECK_FALSE(opt.copy_of(p0.detach().clone(), bf16).defined());  // not a parameter
+    for (int k = 0; k < 3; ++k) {
+      flat_step(net, opt, batch_at(k), lr_at(k), max_norm_at(k));
+      INFO("step " << k);
+      CHECK(copies_equal(net, opt));
+    }
+    CHECK(test::max_param_diff(*net, *make_net(3)) > 1e-3);  // the steps moved the weights
+    // a parameter's storage replaced (as Module::load does): no place until the rebind
+    auto p = net->parameters()[1];
+    {
+      torch::NoGradGuard ng;
+      p.set_(p.detach().clone() + 0.5);
+    }
+    CHECK_FALSE(opt.copy_of(p, bf16).defined());
+    opt.rebind();
+    CHECK(copies_equal(net, opt));
+    // parameters written in place: the copy is stale until refresh_copy()
+    {
+      torch::NoGradGuard ng;
+      for (auto& q : net->parameters()) q.add_(0.25);
+    }
+    CHECK_FALSE(copies_equal(net, opt));
+    opt.refresh_copy();
+    CHECK(copies_equal(net, opt));
+  }
+  // the scopes: weight_copy() asks the innermost live one
+  auto a_net = make_net(4), b_net = make_net(5);
+  rl::FlatAdam a(a_net->parameters(), 1e-3), b(b_net->parameters(), 1e-3);
+  a.keep_copy(bf16);
+  b.keep_copy(bf16);
+  const auto pa = a_net->parameters()[0], pb = b_net->parameters()[0];
+  CHECK_FALSE(rl::FlatAdam::weight_copy(pa, bf16).defined());
+  {
+    rl::FlatAdam::CopyScope outer(a);
+    CHECK(rl::FlatAdam::weight_copy(pa, bf16).data_ptr() == a.copy_of(pa, bf16).data_ptr());
+    CHECK_FALSE(rl::FlatAdam::weight_copy(pb, bf16).defined());
+    {
+      rl::FlatAdam::CopyScope inner(b);
+      CHECK(rl::FlatAdam::weight_copy(pb, bf16).data_ptr() == b.copy_of(pb, bf16).data_ptr());
+      CHECK_FALSE(rl::FlatAdam::weight_copy(pa, bf16).defined());
+    }
+    CHECK(rl::FlatAdam::weight_copy(pa, bf16).data_ptr() == a.copy_of(pa, bf16).data_ptr());
+  }
+  CHECK_FALSE(rl::FlatAdam::weight_copy(pa, bf16).defined());
+}
