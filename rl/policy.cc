@@ -145,13 +145,21 @@ torch::Tensor in_type(const torch::Tensor& p, torch::ScalarType type) {
 // a.mm(b) in `type`: where the product's inputs are of a lower type on a CUDA device and this
 // LibTorch has mm's out_dtype overload (2.8 on), the product writes float32 itself, from its
 // float32 sums, instead of rounding them to the lower type and casting that (one kernel fewer,
-// and no rounding); elsewhere the product and a cast.
+// and no rounding); elsewhere, or where the overload refuses the call, the product and a cast.
 torch::Tensor mm_to(const torch::Tensor& a, const torch::Tensor& b, torch::ScalarType type) {
   if (a.scalar_type() == type) return a.mm(b);
   static const auto op = c10::Dispatcher::singleton().findSchema({"aten::mm", "dtype"});
-  if (op && a.is_cuda() && type == torch::kFloat32)
-    return op->typed<at::Tensor(const at::Tensor&, const at::Tensor&, at::ScalarType)>().call(
-        a, b, type);
+  static bool usable = op.has_value();
+  if (usable && a.is_cuda() && type == torch::kFloat32) {
+    try {
+      return op->typed<at::Tensor(const at::Tensor&, const at::Tensor&, at::ScalarType)>().call(
+          a, b, type);
+    } catch (const c10::Error& e) {
+      usable = false;  // another signature or no such kernel: never asked again
+      TORCH_WARN("mm with an output type refused (", e.what_without_backtrace(),
+                 "): bfloat16 gradients are rounded and cast from now on");
+    }
+  }
   return a.mm(b).to(type);
 }
 
