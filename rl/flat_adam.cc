@@ -24,6 +24,18 @@ void check_fits(const torch::Tensor& now, const torch::Tensor& place, size_t k, 
               place.dtype(), " on ", place.device());
 }
 
+// a parameter's place: from the next multiple of kAlign elements
+int64_t round_up(int64_t n) {
+  return (n + FlatAdam::kAlign - 1) / FlatAdam::kAlign * FlatAdam::kAlign;
+}
+
+// the parameters' places of a flat buffer, one after the other without the gaps (as saved)
+torch::Tensor compact(const std::vector<torch::Tensor>& views) {
+  std::vector<torch::Tensor> rows;
+  for (const auto& v : views) rows.push_back(v.reshape({-1}));
+  return torch::cat(rows);
+}
+
 }  // namespace
 
 bool FlatAdam::fused_available() { return BIDEX_FUSED_ADAM != 0; }
@@ -47,10 +59,10 @@ FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, d
     for (size_t j = 0; j < k; ++j)
       TORCH_CHECK(!p.is_same(params_[j]), "FlatAdam: parameter ", k, " is parameter ", j,
                   " again");
-    total += p.numel();
+    total += round_up(p.numel());
   }
   const auto opts = torch::TensorOptions().dtype(first.dtype()).device(first.device());
-  values_ = torch::empty({total}, opts);
+  values_ = torch::zeros({total}, opts);
   grads_ = torch::zeros({total}, opts);
   exp_avg_ = torch::zeros({total}, opts);
   exp_avg_sq_ = torch::zeros({total}, opts);
@@ -65,7 +77,7 @@ FlatAdam::FlatAdam(std::vector<torch::Tensor> params, double lr, double beta1, d
     grad_views_.push_back(view(grads_));
     exp_avg_views_.push_back(view(exp_avg_));
     exp_avg_sq_views_.push_back(view(exp_avg_sq_));
-    at += p.numel();
+    at += round_up(p.numel());
   }
   // nothing points into the new buffers yet: this moves every value and gradient in
   rebind();
@@ -218,8 +230,9 @@ int64_t FlatAdam::steps() const { return static_cast<int64_t>(step_.item<double>
 void FlatAdam::set_lr(double lr) { lr_.fill_(lr); }
 
 void FlatAdam::save(torch::serialize::OutputArchive& archive) const {
-  archive.write("exp_avg", exp_avg_);
-  archive.write("exp_avg_sq", exp_avg_sq_);
+  // without the gaps between the places: the same archive as before the places were aligned
+  archive.write("exp_avg", compact(exp_avg_views_));
+  archive.write("exp_avg_sq", compact(exp_avg_sq_views_));
   archive.write("step", step_);
   archive.write("lr", lr_);
 }
@@ -233,16 +246,27 @@ void FlatAdam::load(torch::serialize::InputArchive& archive) {
   archive.read("exp_avg_sq", exp_avg_sq);
   archive.read("step", step);
   archive.read("lr", lr);
-  TORCH_CHECK(exp_avg.sizes() == exp_avg_.sizes() && exp_avg_sq.sizes() == exp_avg_.sizes(),
+  int64_t total = 0;
+  for (const auto& v : value_views_) total += v.numel();
+  const std::vector<int64_t> want{total};
+  TORCH_CHECK(exp_avg.sizes() == want && exp_avg_sq.sizes() == want,
               "FlatAdam: the saved moments have shapes ", exp_avg.sizes(), " and ",
-              exp_avg_sq.sizes(), ", these parameters ", exp_avg_.sizes());
+              exp_avg_sq.sizes(), ", these parameters ", torch::IntArrayRef(want));
   TORCH_CHECK(step.numel() == 1 && lr.numel() == 1, "FlatAdam: the saved step and rate have ",
               step.numel(), " and ", lr.numel(), " values, expected 1 each");
   torch::NoGradGuard ng;
-  exp_avg_.copy_(exp_avg);
-  exp_avg_sq_.copy_(exp_avg_sq);
+  scatter(exp_avg, exp_avg_views_);
+  scatter(exp_avg_sq, exp_avg_sq_views_);
   lr_.fill_(lr.item<double>());
   step_.fill_(step.item<double>());
+}
+
+void FlatAdam::scatter(const torch::Tensor& saved, const std::vector<torch::Tensor>& views) {
+  int64_t at = 0;
+  for (const auto& v : views) {
+    v.copy_(saved.narrow(0, at, v.numel()).view(v.sizes()));
+    at += v.numel();
+  }
 }
 
 void FlatAdam::load_libtorch_adam(torch::serialize::InputArchive& archive) {
@@ -292,14 +316,11 @@ void FlatAdam::load_libtorch_adam(torch::serialize::InputArchive& archive) {
   if (stepped == 0) {
     exp_avg_.zero_();
     exp_avg_sq_.zero_();
-  } else {  // the flat buffers hold the parameters one after the other, in this order
-    const auto flat = [](const std::vector<torch::Tensor>& ts) {
-      std::vector<torch::Tensor> rows;
-      for (const auto& t : ts) rows.push_back(t.reshape({-1}));
-      return torch::cat(rows);
-    };
-    exp_avg_.copy_(flat(avg));
-    exp_avg_sq_.copy_(flat(avg_sq));
+  } else {
+    for (size_t k = 0; k < n; ++k) {
+      exp_avg_views_[k].copy_(avg[k]);
+      exp_avg_sq_views_[k].copy_(avg_sq[k]);
+    }
   }
   step_.fill_(static_cast<double>(steps));
 }

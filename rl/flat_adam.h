@@ -43,6 +43,12 @@ namespace bidex::rl {
 
 class FlatAdam {
  public:
+  // Each parameter's place in the flat buffers starts at a multiple of this many elements (the
+  // gaps between places are zeros that the steps leave zero), so that every parameter, and its
+  // place in a bfloat16 copy (keep_copy), is as aligned as a tensor of its own: a matrix product
+  // on a GPU takes its fast kernels only from 16-byte aligned operands.
+  static constexpr int64_t kAlign = 64;
+
   // `params`: distinct tensors of one dtype on one device (their values and gradients move
   // into the flat buffers here).
   // `fused`: the fused step where fused_available(), the plain one otherwise.
@@ -122,6 +128,8 @@ class FlatAdam {
  private:
   // load() of a LibTorch Adam's archive
   void load_libtorch_adam(torch::serialize::InputArchive& archive);
+  // a saved flat buffer without gaps (save()'s) into the places `views`
+  static void scatter(const torch::Tensor& saved, const std::vector<torch::Tensor>& views);
   // fused: each parameter's gradient where autograd left it, or its zeroed flat view
   std::vector<torch::Tensor> current_grads() const;
   void fused_step();

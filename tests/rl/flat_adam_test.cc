@@ -6,6 +6,7 @@
 // saved state (the optimiser parts of older SAC, TD3, DDPG and TRPO checkpoints) loaded.
 #include "tests/rl/rl_fixture.h"
 
+#include <cstdint>
 #include <sstream>
 
 #include "rl/flat_adam.h"
@@ -85,15 +86,19 @@ TEST_CASE("FlatAdam steps as LibTorch's Adam after clip_grad_norm_", "[rl][ppo][
     // both regimes of the clip happen
     if (k % 2 == 0) REQUIRE(want > max_norm_at(k));
     else REQUIRE(want < max_norm_at(k));
-    // autograd accumulates into the gradients bound after zero_grad(), one after another
+    // autograd accumulates into the gradients bound after zero_grad(), one after another, each
+    // from the next multiple of kAlign floats
     opt.set_lr(lr_at(k));
     opt.zero_grad();
     auto params = flat->parameters();
     std::vector<void*> bound;
     for (auto& p : params) bound.push_back(p.grad().data_ptr());
-    for (size_t j = 1; j < params.size(); ++j)
+    const int64_t align = rl::FlatAdam::kAlign * sizeof(float);
+    for (size_t j = 1; j < params.size(); ++j) {
+      const int64_t end = params[j - 1].numel() * sizeof(float);
       REQUIRE(static_cast<char*>(bound[j]) ==
-              static_cast<char*>(bound[j - 1]) + params[j - 1].numel() * sizeof(float));
+              static_cast<char*>(bound[j - 1]) + (end + align - 1) / align * align);
+    }
     loss_of(flat, b).backward();
     for (size_t j = 0; j < params.size(); ++j) REQUIRE(params[j].grad().data_ptr() == bound[j]);
     const double got = opt.clip_grad_norm(max_norm_at(k)).item<double>();
@@ -398,6 +403,38 @@ TEST_CASE("FlatAdam's bfloat16 copy follows the values", "[rl][ppo][flat_adam]")
     CHECK_FALSE(copies_equal(net, opt));
     opt.refresh_copy();
     CHECK(copies_equal(net, opt));
+  }
+  // every parameter's place, in the values and in the copy, 16-byte aligned and kAlign elements
+  // from the first place: log_std's 3 values come first, which would leave every later bfloat16
+  // weight 6 bytes off
+  {
+    auto net = make_net(6);
+    rl::FlatAdam opt(net->parameters(), 1e-3);
+    opt.keep_copy(bf16);
+    const auto params = net->parameters();
+    REQUIRE(params[0].numel() == 3);
+    auto at = [](const torch::Tensor& t) { return reinterpret_cast<std::uintptr_t>(t.data_ptr()); };
+    const auto base = at(params[0]), copy_base = at(opt.copy_of(params[0], bf16));
+    for (const auto& p : params) {
+      const auto c = opt.copy_of(p, bf16);
+      CHECK(at(p) % 16 == 0);
+      CHECK(at(c) % 16 == 0);
+      CHECK((at(p) - base) % (rl::FlatAdam::kAlign * sizeof(float)) == 0);
+      CHECK((at(c) - copy_base) % (rl::FlatAdam::kAlign * 2) == 0);
+    }
+    // the saved moments hold the parameters without the gaps, as before the places were aligned
+    torch::serialize::OutputArchive out;
+    opt.save(out);
+    std::ostringstream bytes;
+    out.save_to(bytes);
+    torch::serialize::InputArchive in;
+    std::istringstream is(bytes.str());
+    in.load_from(is);
+    torch::Tensor saved;
+    in.read("exp_avg", saved);
+    int64_t total = 0;
+    for (const auto& p : params) total += p.numel();
+    CHECK(saved.numel() == total);
   }
   // the scopes: weight_copy() asks the innermost live one
   auto a_net = make_net(4), b_net = make_net(5);
