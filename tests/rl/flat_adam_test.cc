@@ -5,6 +5,7 @@
 // zero_grad replaced still optimised; the optimiser's state saved and loaded; and LibTorch Adam's
 // saved state (the optimiser parts of older SAC, TD3, DDPG and TRPO checkpoints) loaded.
 #include "tests/rl/rl_fixture.h"
+#include "tests/rl/mirror_fixture.h"
 
 #include <cstdint>
 #include <sstream>
@@ -423,13 +424,7 @@ TEST_CASE("FlatAdam's bfloat16 copy follows the values", "[rl][ppo][flat_adam]")
       CHECK((at(c) - copy_base) % (rl::FlatAdam::kAlign * 2) == 0);
     }
     // the saved moments hold the parameters without the gaps, as before the places were aligned
-    torch::serialize::OutputArchive out;
-    opt.save(out);
-    std::ostringstream bytes;
-    out.save_to(bytes);
-    torch::serialize::InputArchive in;
-    std::istringstream is(bytes.str());
-    in.load_from(is);
+    auto in = test::saved_state(opt);
     torch::Tensor saved;
     in.read("exp_avg", saved);
     int64_t total = 0;

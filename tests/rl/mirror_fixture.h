@@ -14,10 +14,11 @@
 
 namespace bidex::test {
 
-// The algorithm's checkpoint state (Algorithm::save) as an archive to read.
-inline torch::serialize::InputArchive saved_state(rl::Algorithm& alg) {
+// What `saver` saves (an Algorithm's checkpoint state, a FlatAdam's) as an archive to read.
+template <class Saver>
+torch::serialize::InputArchive saved_state(Saver& saver) {
   torch::serialize::OutputArchive out;
-  alg.save(out);
+  saver.save(out);
   std::ostringstream bytes;
   out.save_to(bytes);
   torch::serialize::InputArchive in;
