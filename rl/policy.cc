@@ -1,5 +1,6 @@
 #include "rl/policy.h"
 
+#include <atomic>
 #include <cmath>
 #include <utility>
 
@@ -149,7 +150,7 @@ torch::Tensor in_type(const torch::Tensor& p, torch::ScalarType type) {
 torch::Tensor mm_to(const torch::Tensor& a, const torch::Tensor& b, torch::ScalarType type) {
   if (a.scalar_type() == type) return a.mm(b);
   static const auto op = c10::Dispatcher::singleton().findSchema({"aten::mm", "dtype"});
-  static bool usable = op.has_value();
+  static std::atomic<bool> usable = op.has_value();  // backward runs on autograd's threads
   if (usable && a.is_cuda() && type == torch::kFloat32) {
     try {
       return op->typed<at::Tensor(const at::Tensor&, const at::Tensor&, at::ScalarType)>().call(

@@ -454,6 +454,22 @@ std::pair<rl::UpdateStats, rl::UpdateStats> twin_updates(rl::Ppo& a, rl::Ppo& b,
   return {sa, b.update(r, last)};
 }
 
+// How far `ref`'s update moved its parameters from `before`, and how far `other`'s update ended
+// from `ref`'s: the two 2-norms over all parameters.
+struct StepGap {
+  double step, gap;
+};
+StepGap step_and_gap(const std::vector<torch::Tensor>& before, rl::ActorCritic& ref,
+                     rl::ActorCritic& other) {
+  double step = 0, gap = 0;
+  const auto pr = ref->parameters(), po = other->parameters();
+  for (size_t k = 0; k < pr.size(); ++k) {
+    step += (pr[k] - before[k]).pow(2).sum().item<double>();
+    gap += (po[k] - pr[k]).pow(2).sum().item<double>();
+  }
+  return {std::sqrt(step), std::sqrt(gap)};
+}
+
 // A small network's update: two epochs of two minibatches at a fixed learning rate of 1e-3.
 rl::PpoConfig small_update_config() {
   rl::PpoConfig c;
@@ -480,16 +496,11 @@ TEST_CASE("PPO's bfloat16 update stays near its float32 update and learns the ba
   rl::Ppo ppo_full(full, c), ppo_low(low, cb);
   const auto [st_full, st_low] = twin_updates(ppo_full, ppo_low, full, T, N, D, A);
   // parameters stay float32; the step differs by rounding, a small part of the step itself
-  double step = 0, gap = 0;
-  const auto pf = full->parameters(), pl = low->parameters();
-  for (size_t k = 0; k < pf.size(); ++k) {
-    CHECK(pl[k].scalar_type() == torch::kFloat32);
-    step += (pf[k] - before[k]).pow(2).sum().item<double>();
-    gap += (pl[k] - pf[k]).pow(2).sum().item<double>();
-  }
-  INFO("step " << std::sqrt(step) << ", gap " << std::sqrt(gap));
+  for (const auto& p : low->parameters()) CHECK(p.scalar_type() == torch::kFloat32);
+  const auto [step, gap] = step_and_gap(before, full, low);
+  INFO("step " << step << ", gap " << gap);
   CHECK(gap > 0);
-  CHECK(std::sqrt(gap) < 0.25 * std::sqrt(step));
+  CHECK(gap < 0.25 * step);
   CHECK(st_low.policy_loss == Approx(st_full.policy_loss).margin(0.02));
   CHECK(st_low.value_loss == Approx(st_full.value_loss).epsilon(0.02));
   CHECK(st_low.entropy == Approx(st_full.entropy).epsilon(1e-3));
@@ -894,15 +905,10 @@ TEST_CASE("PPO's bfloat16 update from the weights' copy gives the update of per-
     const auto [st_plain, st_gemm] = twin_updates(ppo_plain, ppo_gemm, plain, T, N, D, A);
     CHECK(st_gemm.policy_loss == Approx(st_plain.policy_loss).margin(1e-3));
     CHECK(st_gemm.value_loss == Approx(st_plain.value_loss).epsilon(1e-3));
-    const auto pp = plain->parameters(), pg = gemm->parameters();
-    double step = 0, gap = 0;
-    for (size_t k = 0; k < pp.size(); ++k) {
-      step += (pp[k] - before[k]).pow(2).sum().item<double>();
-      gap += (pg[k] - pp[k]).pow(2).sum().item<double>();
-    }
-    INFO("step " << std::sqrt(step) << ", gap " << std::sqrt(gap));
-    CHECK(std::sqrt(step) > 1e-2);
-    CHECK(std::sqrt(gap) < 0.02 * std::sqrt(step));  // about 0.002; a stale copy: 0.35
+    const auto [step, gap] = step_and_gap(before, plain, gemm);
+    INFO("step " << step << ", gap " << gap);
+    CHECK(step > 1e-2);
+    CHECK(gap < 0.02 * step);  // about 0.002; a stale copy: 0.35
     // the copy is the weights after the last step
     CHECK(torch::equal(ppo_gemm.optimizer().copy_of(w0, torch::kBFloat16),
                        w0.to(torch::kBFloat16)));
