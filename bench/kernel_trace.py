@@ -5,6 +5,7 @@ stream's own busy time and the gaps between its kernels, and the kernels by name
 
     python3 bench/kernel_trace.py TRACE --out DIR [--bench JSON | --labels A,B,...] [--compare]
         [--step-kernel random_fill] [--skip 5] [--gap 0.25] [--top 25] [--streams 20]
+        [--long-stream 300]
 
 Steps are cut at the kernels whose name holds --step-kernel (`bidex bench pack` and `bench warp`
 draw each step's random actions with _random_fill before stepping): step i runs from the end of
@@ -22,7 +23,10 @@ Per step (the median over a phase's steps):
   kernel    the kernels' durations added up (over busy: how many run side by side on average)
   idle      span - busy: nothing runs while the step is in flight
   per stream: its kernels, their summed durations and the gaps between them (span - busy on
-  that stream: launch latency and waits)
+  that stream: launch latency and waits); and the long streams (--long-stream kernels a step or
+  more: a MuJoCo Warp backend's captured step) against the short ones (graphs the device
+  launches, such as the bodies of MuJoCo Warp's solver loop), each group's kernels, summed time
+  and busy time
 Kernel names are shortened: Warp's module hashes and _cuda_kernel_forward are cut, so that one
 kernel of MuJoCo Warp compiled for several scenes reads as one name.
 
@@ -54,6 +58,9 @@ def parse():
     p.add_argument("--gap", type=float, default=0.25,
                    help="seconds between two draws that end a phase")
     p.add_argument("--top", type=int, default=25, help="kernel names listed per phase")
+    p.add_argument("--long-stream", type=int, default=300,
+                   help="kernels a step that make a stream long: a backend's captured step, "
+                        "where the short ones are graphs the device launches (a loop's bodies)")
     p.add_argument("--streams", type=int, default=20,
                    help="streams listed per phase in the text (the JSON has them all)")
     return p.parse_args()
@@ -131,7 +138,7 @@ def phases(kernels, names, step_kernel, gap_ns):
     return out
 
 
-def step_stats(ks, names):
+def step_stats(ks, names, long_stream):
     """One step's measures from its kernels (sorted by start)."""
     span = max(k[1] for k in ks) - ks[0][0]
     busy = union([(k[0], k[1]) for k in ks])
@@ -146,6 +153,15 @@ def step_stats(ks, names):
         per_stream[sid] = {"kernels": len(sk), "busy": s_busy,
                            "kernel": sum(k[1] - k[0] for k in sk), "span": s_span,
                            "gaps": s_span - s_busy}
+    # the streams with at least long_stream kernels in the step (a backend's captured step)
+    # against the others (graphs the device launches: a loop's bodies), each group's kernels,
+    # their summed time and the union of their intervals
+    groups = {}
+    for g, keep in (("long", lambda n: n >= long_stream), ("short", lambda n: n < long_stream)):
+        gk = [k for k in ks if keep(len(streams[k[2]]))]
+        groups[g] = {"streams": sum(1 for sk in streams.values() if keep(len(sk))),
+                     "kernels": len(gk), "kernel": sum(k[1] - k[0] for k in gk),
+                     "busy": union([(k[0], k[1]) for k in gk])}
     by_name = {}
     for k in ks:
         n = short(names[k[3]])
@@ -154,7 +170,7 @@ def step_stats(ks, names):
         c[1] += k[1] - k[0]
         c[2] += k[4]
     return {"span": span, "busy": busy, "kernel": total, "idle": span - busy,
-            "kernels": len(ks), "streams": per_stream, "names": by_name}
+            "kernels": len(ks), "streams": per_stream, "groups": groups, "names": by_name}
 
 
 def median(xs):
@@ -168,6 +184,12 @@ def summarise(label, steps):
         out[key + "_ms"] = median([s[key] for s in steps]) * ms
     out["kernels"] = median([s["kernels"] for s in steps])
     out["side_by_side"] = out["kernel_ms"] / out["busy_ms"] if out["busy_ms"] else 0.0
+    out["stream_groups"] = {
+        g: {"streams": median([s["groups"][g]["streams"] for s in steps]),
+            "kernels": median([s["groups"][g]["kernels"] for s in steps]),
+            "kernel_ms": median([s["groups"][g]["kernel"] for s in steps]) * ms,
+            "busy_ms": median([s["groups"][g]["busy"] for s in steps]) * ms}
+        for g in ("long", "short")}
     streams = sorted({sid for s in steps for sid in s["streams"]})
     rows = []
     for sid in streams:
@@ -226,6 +248,11 @@ def text_report(summary):
         lines.append(f"   span {p['span_ms']:.2f} ms, busy {p['busy_ms']:.2f} ms, idle "
                      f"{p['idle_ms']:.2f} ms, kernels {p['kernels']:.0f} ({p['kernel_ms']:.2f} "
                      f"ms added up: {p['side_by_side']:.2f} side by side)")
+        for g, what in (("long", f"streams of {summary['long_stream']}+ kernels a step"),
+                        ("short", "the other streams")):
+            v = p["stream_groups"][g]
+            lines.append(f"   {what}: {v['streams']:.0f} streams, {v['kernels']:.0f} kernels, "
+                         f"{v['kernel_ms']:.2f} ms added up, busy {v['busy_ms']:.2f} ms")
         lines.append("   stream        kernels  kernel ms  span ms  gaps ms")
         for r in p["stream_rows"][:summary["streams"]]:
             lines.append(f"   {r['stream']:>10}  {r['kernels']:>7.0f}  {r['kernel_ms']:>9.2f}  "
@@ -290,7 +317,7 @@ def main():
             lo, hi = draws[i][1], draws[i + 1][0]
             ks = kernels[bisect.bisect_left(starts, lo):bisect.bisect_left(starts, hi)]
             if ks:
-                steps.append(step_stats(ks, names))
+                steps.append(step_stats(ks, names, a.long_stream))
         if not steps:
             sys.exit(f"kernel_trace: phase {label!r} has {len(draws)} draws, none left after "
                      f"--skip {a.skip}")
@@ -298,6 +325,7 @@ def main():
     summary = {"trace": os.path.basename(a.trace), "dropped_records": dropped,
                "unstamped_kernels": unstamped,
                "step_kernel": a.step_kernel, "skip": a.skip, "top": a.top, "streams": a.streams,
+               "long_stream": a.long_stream,
                "phases": ph}
     if a.compare:
         c = compare(ph, "packed")

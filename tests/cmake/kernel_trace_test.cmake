@@ -45,12 +45,16 @@ endforeach()
 file(WRITE ${WORK}/trace.txt "${trace}")
 
 run_script(help TRUE ${PYTHON} ${script} --help)
-expect_text(help "kernel-trace.json" "--step-kernel" "--labels" "--compare" "side by side")
+expect_text(help "kernel-trace.json" "--step-kernel" "--labels" "--compare" "side by side"
+            "--long-stream")
 
 run_script(summary TRUE ${PYTHON} ${script} ${WORK}/trace.txt --out ${WORK}/out --skip 0
-           --labels packed,alone --compare)
+           --labels packed,alone --compare --long-stream 2)
+# (with --long-stream 2, stream 11 is long in the packed phase and stream 12 short)
 expect_text(summary "== packed: 3 steps"
   "span 0.25 ms, busy 0.25 ms, idle 0.00 ms, kernels 3 (0.35 ms added up: 1.40 side by side)"
+  "streams of 2+ kernels a step: 1 streams, 2 kernels, 0.20 ms added up, busy 0.20 ms"
+  "the other streams: 1 streams, 1 kernels, 0.15 ms added up, busy 0.15 ms"
   "== alone: 3 steps" "span 0.20 ms, busy 0.20 ms, idle 0.00 ms, kernels 1"
   "packed against the mean of the 1 tasks alone")
 file(READ ${WORK}/out/kernel-trace.json json)
