@@ -76,7 +76,8 @@ then)
     echo "$(date -u +%T) start: $1"
     BIDEX_GPU_BUILD=build-gpu bash -c "$1"
     rc=$?  # before $(date ...) below, which sets $? itself
-    echo "$(date -u +%T) end (exit $rc): $1"' "$src" "$cmd" "$built" >>"$src/then.log" 2>&1 </dev/null &
+    echo "$(date -u +%T) end (exit $rc): $1"' "$src" "$cmd" "$built" \
+    >>"$src/then.log" 2>&1 </dev/null &
   echo "lease_run: after the build, in $src: $cmd (log $src/then.log)"
   ;;
 status)

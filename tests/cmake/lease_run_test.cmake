@@ -31,7 +31,8 @@ function(wait_for file text)
   message(SEND_ERROR "${file} does not say '${text}' after 30 s:\n${got}")
 endfunction()
 
-run_script(then TRUE bash ${lease} then ${WORK}/built "echo ran in \$PWD with \$BIDEX_GPU_BUILD && exit 3")
+run_script(then TRUE bash ${lease} then ${WORK}/built
+           "echo ran in \$PWD with \$BIDEX_GPU_BUILD && exit 3")
 expect_text(then "after the build, in ${WORK}/built")
 wait_for(${WORK}/built/then.log "end (exit 3): echo ran")
 wait_for(${WORK}/built/then.log "ran in ${WORK}/built with build-gpu")
