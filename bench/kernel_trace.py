@@ -34,6 +34,7 @@ Writes DIR/kernel-trace.json and DIR/kernel-trace.txt.
 """
 import argparse
 import json
+import lzma
 import os
 import re
 import statistics
@@ -46,7 +47,8 @@ from atomic_io import write_json, write_text  # noqa: E402
 def parse():
     p = argparse.ArgumentParser(description=__doc__,
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("trace", help="the file bench/kernel_trace.sh run wrote")
+    p.add_argument("trace", help="the file bench/kernel_trace.sh run wrote (or it xz-compressed, "
+                                 "named .xz)")
     p.add_argument("--out", required=True, help="folder for kernel-trace.{json,txt}")
     p.add_argument("--bench", help="bidex bench pack's JSON: names the phases")
     p.add_argument("--labels", help="the phases' names, comma-separated, in order")
@@ -79,7 +81,7 @@ def read_trace(path):
     unstamped)."""
     names, kernels, dropped, unstamped = {}, [], 0, 0
     try:
-        f = open(path)
+        f = lzma.open(path, "rt") if path.endswith(".xz") else open(path)
     except OSError as e:
         sys.exit(f"kernel_trace: cannot read {path}: {e.strerror}")
     with f:
@@ -98,7 +100,7 @@ def read_trace(path):
                     dropped += int(p[1])
                 elif p[0] not in ("C", "S"):
                     raise ValueError(f"record type {p[0]!r}")
-            except (IndexError, ValueError) as e:
+            except (IndexError, ValueError, lzma.LZMAError) as e:
                 sys.exit(f"kernel_trace: {path}:{lineno}: expected a K, N, C, S or D record "
                          f"(bench/kernel_trace.cc), got {line.strip()[:80]!r} ({e})")
     if not kernels:

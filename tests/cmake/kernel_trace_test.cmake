@@ -99,6 +99,18 @@ if(NOT solve EQUAL 2)
   message(SEND_ERROR "summary: 'solve' runs ${solve} times a step, expected 2")
 endif()
 
+# the same trace xz-compressed (traces come back from a lease that way) gives the same summary
+execute_process(COMMAND ${PYTHON} -c
+  "import lzma, sys; lzma.open(sys.argv[2], 'wb').write(open(sys.argv[1], 'rb').read())"
+  ${WORK}/trace.txt ${WORK}/trace.txt.xz)
+run_script(xz TRUE ${PYTHON} ${script} ${WORK}/trace.txt.xz --out ${WORK}/out-xz --skip 0
+           --labels packed,alone --compare --long-stream 2)
+file(READ ${WORK}/out/kernel-trace.txt plain_text)
+file(READ ${WORK}/out-xz/kernel-trace.txt xz_text)
+if(NOT plain_text STREQUAL xz_text)
+  message(SEND_ERROR "xz: the compressed trace's summary differs:\n${xz_text}")
+endif()
+
 # refusals, each with nothing written
 file(WRITE ${WORK}/bad.txt "N\t0\t_random_fill\nK\t10\t20\t7\n")
 run_script(bad_record FALSE ${PYTHON} ${script} ${WORK}/bad.txt --out ${WORK}/bad)
