@@ -33,7 +33,6 @@ namespace {
 std::mutex mu;
 FILE* out = nullptr;
 std::unordered_map<std::string, int> names;
-bool finished = false;
 
 void report(CUptiResult r, const char* what) {
   if (r == CUPTI_SUCCESS) return;
@@ -58,7 +57,7 @@ int name_id(const char* name) {
 
 void CUPTIAPI completed(CUcontext ctx, uint32_t stream, uint8_t* buffer, size_t, size_t valid) {
   std::lock_guard<std::mutex> lock(mu);
-  if (out && !finished) {
+  if (out) {  // null once finish() has closed it
     CUpti_Activity* r = nullptr;
     while (cuptiActivityGetNextRecord(buffer, valid, &r) == CUPTI_SUCCESS) {
       if (r->kind == CUPTI_ACTIVITY_KIND_CONCURRENT_KERNEL ||
@@ -95,8 +94,7 @@ void CUPTIAPI completed(CUcontext ctx, uint32_t stream, uint8_t* buffer, size_t,
 void finish() {
   report(cuptiActivityFlushAll(CUPTI_ACTIVITY_FLAG_FLUSH_FORCED), "the last flush");
   std::lock_guard<std::mutex> lock(mu);
-  if (!out || finished) return;
-  finished = true;
+  if (!out) return;
   if (std::fclose(out) != 0) std::perror("kernel_trace: closing KTRACE_OUT");
   out = nullptr;
 }

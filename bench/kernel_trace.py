@@ -33,6 +33,7 @@ kernel of MuJoCo Warp compiled for several scenes reads as one name.
 Writes DIR/kernel-trace.json and DIR/kernel-trace.txt.
 """
 import argparse
+import bisect
 import json
 import lzma
 import os
@@ -84,10 +85,11 @@ def read_trace(path):
         f = lzma.open(path, "rt") if path.endswith(".xz") else open(path)
     except OSError as e:
         sys.exit(f"kernel_trace: cannot read {path}: {e.strerror}")
-    with f:
-        for lineno, line in enumerate(f, 1):
-            p = line.rstrip("\n").split("\t")
-            try:
+    lineno, line = 0, ""
+    try:
+        with f:
+            for lineno, line in enumerate(f, 1):
+                p = line.rstrip("\n").split("\t")
                 if p[0] == "K":
                     k = (int(p[1]), int(p[2]), int(p[3]), int(p[7]), int(p[5]))
                     if k[0] > 0 and k[1] >= k[0]:
@@ -100,9 +102,11 @@ def read_trace(path):
                     dropped += int(p[1])
                 elif p[0] not in ("C", "S"):
                     raise ValueError(f"record type {p[0]!r}")
-            except (IndexError, ValueError, lzma.LZMAError) as e:
-                sys.exit(f"kernel_trace: {path}:{lineno}: expected a K, N, C, S or D record "
-                         f"(bench/kernel_trace.cc), got {line.strip()[:80]!r} ({e})")
+    except (IndexError, ValueError) as e:
+        sys.exit(f"kernel_trace: {path}:{lineno}: expected a K, N, C, S or D record "
+                 f"(bench/kernel_trace.cc), got {line.strip()[:80]!r} ({e})")
+    except (lzma.LZMAError, EOFError, OSError) as e:  # a damaged or cut .xz
+        sys.exit(f"kernel_trace: {path}: cannot read past line {lineno}: {e}")
     if not kernels:
         sys.exit(f"kernel_trace: {path} holds no kernel records")
     missing = {k[3] for k in kernels} - names.keys()
@@ -228,7 +232,8 @@ def labels_from(bench_path, labels, count):
     if not bench_path:
         return [f"phase {i}" for i in range(count)]
     try:
-        b = json.load(open(bench_path))
+        with open(bench_path) as f:
+            b = json.load(f)
     except (OSError, ValueError) as e:
         sys.exit(f"kernel_trace: --bench {bench_path}: {e}")
     names = []
@@ -311,7 +316,6 @@ def main():
     groups = phases(kernels, names, a.step_kernel, int(a.gap * 1e9))
     labels = labels_from(a.bench, a.labels, len(groups))
     starts = [k[0] for k in kernels]
-    import bisect
     ph = []
     for label, draws in zip(labels, groups):
         steps = []

@@ -111,7 +111,24 @@ if(NOT plain_text STREQUAL xz_text)
   message(SEND_ERROR "xz: the compressed trace's summary differs:\n${xz_text}")
 endif()
 
+# the phases named from bidex bench pack's JSON (the pack, then each task alone)
+file(WRITE ${WORK}/bench.json
+     "{\"packed\": {}, \"single\": [{\"task\": \"t\", \"label\": \"one\"}]}")
+run_script(bench TRUE ${PYTHON} ${script} ${WORK}/trace.txt --out ${WORK}/out-bench --skip 0
+           --bench ${WORK}/bench.json --compare)
+expect_text(bench "== packed: 3 steps" "== one: 3 steps" "packed against the mean of the 1 tasks")
+
 # refusals, each with nothing written
+file(WRITE ${WORK}/bench3.json
+     "{\"packed\": {}, \"packed_one_backend_per_scene\": {}, \"single\": [{\"label\": \"a\"}]}")
+run_script(bench3 FALSE ${PYTHON} ${script} ${WORK}/trace.txt --out ${WORK}/bad --skip 0
+           --bench ${WORK}/bench3.json)
+expect_text(bench3 "bench3.json names 3 measurements, the trace holds 2 phases")
+execute_process(COMMAND ${PYTHON} -c
+  "import sys; b = open(sys.argv[1], 'rb').read(); open(sys.argv[2], 'wb').write(b[:len(b) // 2])"
+  ${WORK}/trace.txt.xz ${WORK}/cut.txt.xz)
+run_script(cut FALSE ${PYTHON} ${script} ${WORK}/cut.txt.xz --out ${WORK}/bad)
+expect_text(cut "cut.txt.xz: cannot read past line")
 file(WRITE ${WORK}/bad.txt "N\t0\t_random_fill\nK\t10\t20\t7\n")
 run_script(bad_record FALSE ${PYTHON} ${script} ${WORK}/bad.txt --out ${WORK}/bad)
 expect_text(bad_record "bad.txt:2" "expected a K, N, C, S or D record")
