@@ -3,6 +3,8 @@
 # ppo.align_widths=true -o ppo.bf16_act=true ("bf16"), one build ($BIDEX_COMMIT), 16,384 slots,
 # 16 minibatches, GPU 0, one run at a time. The first run compiles the machine's Warp kernels
 # (no separate warm-up: the medians and the curves do not see it).
+# SEEDS and MODES choose other seeds and settings (the lease lost its first machine and ran
+# SEEDS=5 MODES=bf16 on a second one).
 # Each run touches DIR/done when it ends; pack with
 #   cd /root/t && find . -path '*/checkpoints/*' -prune -o -type f -print | tar -cJf $OUT/r.tar.xz -T -
 export CUDA_VISIBLE_DEVICES=0
@@ -19,5 +21,5 @@ run() {  # $1 seed, $2 tf32/bf16
   rc=$?
   echo "$(date -u +%T) end $2 s$1 (exit $rc)"; touch $d/done
 }
-for s in 3 4 5 6; do run $s tf32; run $s bf16; done
+for s in ${SEEDS:-3 4 5 6}; do for m in ${MODES:-tf32 bf16}; do run $s $m; done; done
 echo "$(date -u +%T) chain done"; touch /root/chain.done
