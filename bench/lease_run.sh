@@ -24,6 +24,9 @@
 # COMMAND runs, send the next waiting call as soon as the last returns (local work beside it only
 # if it ends first), and let every waiting call pack the runs finished so far into $OUT, so that a
 # lost machine loses only the run in progress (bench/results/learner-equiv-h200/lease29/lease.txt).
+# A call packs only when it ends, so keep waiting calls to about one run's length: a machine taken
+# back during a 545 s call lost the runs finished since the last pack (three, by the chain's
+# timing: bench/results/learner-equiv-h200/lease34/lease.txt).
 set -uo pipefail
 here=$(cd "$(dirname "$0")/.." && pwd)
 stage=${1:-}
