@@ -45,12 +45,28 @@ endfunction()
 # config_fields.cc: 1.1 s to 10.2 s), and a source that includes LibTorch without it takes 1.5-2x
 # its time (rl/td3.cc: 9.6 s to 20.4 s). New sources get the PCH; `g++ -M` on a source's compile
 # command (ninja -t commands) shows whether it includes torch/torch.h.
+# The header is compiled once for the libraries and once for the executables, the first target of
+# each kind making it and the later ones reusing it (REUSE_FROM): GCC takes a PCH only where
+# -fPIC/-fPIE match, and the flags are otherwise the same. Compiling it took 41-75 s a target on
+# two cores, six times before (bench/results/build-pch-2core/).
 function(bidex_torch_pch target)
   cmake_parse_arguments(ARG "" "" "WITHOUT" ${ARGN})
   if(NOT BIDEX_PCH)
     return()
   endif()
-  target_precompile_headers(${target} PRIVATE <torch/torch.h>)
+  get_target_property(_type ${target} TYPE)
+  if(_type STREQUAL "EXECUTABLE")
+    set(_kind executable)
+  else()
+    set(_kind library)
+  endif()
+  get_property(_donor GLOBAL PROPERTY BIDEX_TORCH_PCH_${_kind})
+  if(_donor)
+    target_precompile_headers(${target} REUSE_FROM ${_donor})
+  else()
+    target_precompile_headers(${target} PRIVATE <torch/torch.h>)
+    set_property(GLOBAL PROPERTY BIDEX_TORCH_PCH_${_kind} ${target})
+  endif()
   get_target_property(_all ${target} SOURCES)
   foreach(_src IN LISTS ARG_WITHOUT)
     if(NOT _src IN_LIST _all)
