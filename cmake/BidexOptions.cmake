@@ -47,7 +47,7 @@ endfunction()
 # command (ninja -t commands) shows whether it includes torch/torch.h.
 # The header is compiled once for the libraries and once for the executables, the first target of
 # each kind making it and the later ones reusing it (REUSE_FROM): GCC takes a PCH only where
-# -fPIC/-fPIE match, and the flags are otherwise the same. Compiling it took 41-75 s a target on
+# -fPIC/-fPIE match, and the flags are otherwise the same. Compiling it took 61-76 s a target on
 # two cores, six times before (bench/results/build-pch-2core/).
 function(bidex_torch_pch target)
   cmake_parse_arguments(ARG "" "" "WITHOUT" ${ARGN})
