@@ -74,7 +74,9 @@ void register_algorithm(const AlgorithmInfo& info, AlgorithmFactory make, Sectio
 std::unique_ptr<Algorithm> make_algorithm(const std::string& name, const TrainConfig& config,
                                           int64_t obs_dim, int64_t act_dim, int64_t nslot,
                                           const torch::Device& device) {
-  return entry(name).make(config, obs_dim, act_dim, nslot, device);
+  TrainConfig settled = config;  // `auto` settings decided for this device (rl/config.h)
+  settle_auto(settled, device.is_cuda());
+  return entry(name).make(settled, obs_dim, act_dim, nslot, device);
 }
 
 }  // namespace bidex::rl

@@ -45,6 +45,26 @@ void merge(YAML::Node dst, const YAML::Node& src, const std::string& file, const
   }
 }
 
+// A setting of true, false or auto (`automatic`: decided by settle_auto for the learner's
+// device, `value` false until then); absent: false.
+void read_switch(const YamlView& parent, const char* key, bool& value, bool& automatic) {
+  value = automatic = false;
+  const auto v = parent.maybe(key);
+  if (!v) return;
+  try {
+    value = v->as<bool>();
+    return;
+  } catch (const ConfigError&) {  // not a bool: auto, or an error naming the choices
+  }
+  std::string s;
+  try {
+    s = v->as<std::string>();
+  } catch (const ConfigError&) {
+  }
+  if (s != "auto") v->fail("true, false or auto (on with a CUDA learner)", v->repr());
+  automatic = true;
+}
+
 }  // namespace
 
 std::string default_train_config(const std::string& algo) {
@@ -334,9 +354,10 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
       o.value_clip = read_real(p, "value_clip", 0, 1e3, true);
       if (auto g = p.maybe("cuda_graph")) o.cuda_graph = g->as<bool>();
       if (auto g = p.maybe("act_graph")) o.act_graph = g->as<bool>();  // absent before it existed
-      if (auto b = p.maybe("bf16")) o.bf16 = b->as<bool>();  // absent before it existed
-      if (auto b = p.maybe("bf16_act")) o.bf16_act = b->as<bool>();  // the same
-      if (auto b = p.maybe("align_widths")) o.align_widths = b->as<bool>();  // the same
+      // absent before they existed: off
+      read_switch(p, "bf16", o.bf16, o.bf16_auto);
+      read_switch(p, "bf16_act", o.bf16_act, o.bf16_act_auto);
+      read_switch(p, "align_widths", o.align_widths, o.align_widths_auto);
       if (auto b = p.maybe("fused_adam")) o.fused_adam = b->as<bool>();      // the same
       if (auto b = p.maybe("bias_grad_gemm")) o.bias_grad_gemm = b->as<bool>();  // the same
       if (p.has("advantage_norm")) {  // absent from run configs written before it existed
@@ -367,6 +388,38 @@ std::string config_hash(const std::string& yaml_text) {
   char buf[17];
   std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
   return buf;
+}
+
+void settle_auto(TrainConfig& c, bool cuda, std::string* yaml_text) {
+  PpoConfig& o = c.ppo;
+  const struct {
+    const char* key;
+    bool *value, *automatic;
+  } settings[] = {{"bf16", &o.bf16, &o.bf16_auto},
+                  {"bf16_act", &o.bf16_act, &o.bf16_act_auto},
+                  {"align_widths", &o.align_widths, &o.align_widths_auto}};
+  YAML::Node root;
+  if (yaml_text) root = YAML::Load(*yaml_text);
+  bool rewritten = false;
+  for (const auto& [key, value, automatic] : settings) {
+    if (!*automatic) continue;
+    *value = cuda;
+    *automatic = false;
+    if (!yaml_text) continue;
+    const std::string& name = find_algorithm(c.algo).section;
+    const YAML::Node& view = root;  // const: looking up inserts nothing
+    const YAML::Node was = view[name] && view[name].IsMap() ? view[name][key] : YAML::Node();
+    if (was && was.IsScalar() && was.Scalar() == "auto") {
+      YAML::Node section = root[name];
+      section[key] = cuda;
+      rewritten = true;
+    }
+  }
+  if (!rewritten) return;
+  YAML::Emitter em;  // as resolve_train_yaml writes it
+  em.SetIndent(2);
+  em << root;
+  *yaml_text = std::string(em.c_str()) + "\n";
 }
 
 }  // namespace bidex::rl

@@ -52,6 +52,9 @@ struct PpoConfig {
   // PPO and MTPPO: the actor's and critic's layers of a width not a multiple of 8 (the
   // observation's, the action's, the value's) padded with zeros to one (rl/policy.h, PaddedLinear)
   bool align_widths = false;
+  // bf16, bf16_act and align_widths may read `auto` in the YAML: on where the learner runs on
+  // CUDA. Until settle_auto() decides them for a device, the flag is set and the value false.
+  bool bf16_auto = false, bf16_act_auto = false, align_widths_auto = false;
   // PPO and MTPPO: FlatAdam's fused step (rl/flat_adam.h; where LibTorch has it, 2.4 on)
   bool fused_adam = false;
   // PPO and MTPPO: the layers' bias gradients as matrix products (rl/policy.h,
@@ -171,5 +174,12 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
 
 // A short hash of the resolved YAML text (hex), recorded with every checkpoint.
 std::string config_hash(const std::string& yaml_text);
+
+// Decides the settings that read `auto` (ppo.bf16, ppo.bf16_act and ppo.align_widths: on with a
+// CUDA learner) for a learner on CUDA (`cuda`) or not: in `c`, and in `yaml_text` where given
+// (rewritten only where it held an `auto`), so that a new run's config.yaml says what ran and
+// a resumed or loaded run builds the same networks (align_widths sets their shapes, which the
+// checkpoints keep).
+void settle_auto(TrainConfig& c, bool cuda, std::string* yaml_text = nullptr);
 
 }  // namespace bidex::rl

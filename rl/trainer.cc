@@ -177,7 +177,7 @@ struct Session {
   double wall = 0;  // seconds of training, summed over resumed sessions
   std::string last_checkpoint;
 
-  void build(uint64_t env_seed, const std::string& requested_sim_device) {
+  void build(uint64_t env_seed, const std::string& requested_sim_device, bool new_run) {
     device = pick_device(cfg, name);
     if (cfg.torch_threads > 0) torch::set_num_threads(cfg.torch_threads);
     if (device.is_cuda())
@@ -194,6 +194,8 @@ struct Session {
           spec, run_warp_pack_options(cfg, env_seed, sim_device == "warp-cpu" ? "cpu" : "cuda"));
       if (sim_device == "warp-cpu") device = torch::Device(torch::kCPU);
     }
+    // a new run's config.yaml is written after this, and says what ran; a resumed run's is kept
+    settle_auto(cfg, device.is_cuda(), new_run ? &yaml : nullptr);
     algo = make_algorithm(cfg.algo, cfg, env->obs_dim(), env->act_dim(), env->nslot(), device);
     int ntasks = 0;
     const std::vector<int> tasks = env->slot_tasks(&ntasks);
@@ -663,9 +665,9 @@ TrainResult train_new(const std::string& resolved_yaml, const std::string& run_d
   if (!dir_is_empty_or_missing(run_dir))
     throw Error("run folder " + run_dir + " exists and is not empty: continue it with --resume " +
                 run_dir + ", or choose another --run");
-  s.build(s.cfg.seed, options.device);
+  s.build(s.cfg.seed, options.device, true);
   s.algo->prepare_training();  // an offline algorithm's dataset, checked before anything is written
-  write_file_atomic(run_dir + "/config.yaml", resolved_yaml);
+  write_file_atomic(run_dir + "/config.yaml", s.yaml);
   write_run_json(s, options, false);
   if (options.on_start) options.on_start(s.cfg, run_dir);
   MetricsLog log(run_dir, metric_columns(*s.env, *s.algo));
@@ -684,7 +686,7 @@ TrainResult train_resume(const std::string& run_dir, const TrainOptions& options
                 "/checkpoints/update_*.ckpt)");
   const CheckpointMeta m = read_checkpoint_meta(cks.back());
   // the environment restarts its episodes: a new seed per resumed session, so that they differ
-  s.build(s.cfg.seed + 1000003ull * static_cast<uint64_t>(m.update), options.device);
+  s.build(s.cfg.seed + 1000003ull * static_cast<uint64_t>(m.update), options.device, false);
   s.algo->prepare_training();
   load_into(s, cks.back());
   s.last_checkpoint = cks.back();

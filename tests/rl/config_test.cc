@@ -145,34 +145,82 @@ TEST_CASE("ppo.act_graph, fused_adam and bias_grad_gemm: on in ppo.yaml and mtpp
   }
 }
 
-// ppo.bf16_act (rl/onpolicy.h): off in the shipped configs, as ppo.bf16 is; on by override for
-// PPO and MTPPO; off where a run's config predates it; not a key of TRPO's section
-TEST_CASE("ppo.bf16_act: off by default, on by override, off for configs without it",
+// ppo.bf16, bf16_act and align_widths (rl/autocast.h, rl/onpolicy.h, rl/policy.h): auto in
+// ppo.yaml (on with a CUDA learner, decided by settle_auto, which rewrites the auto lines of a new
+// run's config.yaml and nothing else), off in mtppo.yaml; true or false by override; off where a
+// run's config predates them; not keys of TRPO's section
+TEST_CASE("ppo.bf16, bf16_act and align_widths: auto in PPO, settled for the learner's device",
           "[rl][config]") {
-  CHECK_FALSE(resolve("hand_over").ppo.bf16_act);
-  CHECK(resolve("hand_over", {"ppo.bf16_act=true"}).ppo.bf16_act);
+  struct Switch {
+    std::string key;
+    bool rl::PpoConfig::*value;
+    bool rl::PpoConfig::*automatic;
+  };
+  const std::vector<Switch> keys = {
+      {"bf16", &rl::PpoConfig::bf16, &rl::PpoConfig::bf16_auto},
+      {"bf16_act", &rl::PpoConfig::bf16_act, &rl::PpoConfig::bf16_act_auto},
+      {"align_widths", &rl::PpoConfig::align_widths, &rl::PpoConfig::align_widths_auto}};
   const auto mt = [](std::vector<std::string> o) {
     return rl::parse_train_config(
         rl::resolve_train_yaml(rl::default_train_config("mtppo"), "mtppo", "MT4", o), "x.yaml");
   };
-  CHECK_FALSE(mt({}).ppo.bf16_act);
-  CHECK(mt({"ppo.bf16_act=true"}).ppo.bf16_act);
-  std::string on = rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over",
-                                          {"ppo.bf16_act=true"});
-  CHECK(rl::parse_train_config(on, "run-config.yaml").ppo.bf16_act);
-  const auto at = on.find("bf16_act:");
-  REQUIRE(at != std::string::npos);
-  const auto line = on.rfind('\n', at) + 1;
-  on.erase(line, on.find('\n', at) - line + 1);
-  CHECK_FALSE(rl::parse_train_config(on, "run-config.yaml").ppo.bf16_act);
-  require_config_error([] { resolve("hand_over", {"ppo.bf16_act=half"}); }, "ppo.bf16_act",
-                       "true or false", "half");
-  require_config_error(
-      [] {
-        rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", "hand_over",
-                               {"trpo.bf16_act=true"});
-      },
-      "trpo.bf16_act", "a known key", "bf16_act");
+  const std::string yaml =
+      rl::resolve_train_yaml(rl::default_train_config("ppo"), "ppo", "hand_over", {});
+  for (const auto& k : keys) {
+    INFO("ppo." << k.key);
+    const auto c = resolve("hand_over");
+    CHECK(c.ppo.*k.automatic);
+    CHECK_FALSE(c.ppo.*k.value);  // undecided until settled
+    REQUIRE(yaml.find("  " + k.key + ": auto\n") != std::string::npos);
+    for (const bool cuda : {false, true}) {
+      INFO("cuda " << cuda);
+      rl::TrainConfig settled = c;
+      std::string text = yaml;
+      rl::settle_auto(settled, cuda, &text);
+      CHECK(settled.ppo.*k.value == cuda);
+      CHECK_FALSE(settled.ppo.*k.automatic);
+      // the text says the same, and differs from the resolved one only there
+      CHECK(text.find("  " + k.key + ": " + (cuda ? "true" : "false") + "\n") !=
+            std::string::npos);
+      const auto reread = rl::parse_train_config(text, "config.yaml");
+      CHECK(reread.ppo.*k.value == cuda);
+      CHECK_FALSE(reread.ppo.*k.automatic);
+      std::string back = text;
+      for (const auto& other : keys) {
+        const std::string was = "  " + other.key + ": " + (cuda ? "true" : "false") + "\n";
+        back.replace(back.find(was), was.size(), "  " + other.key + ": auto\n");
+      }
+      CHECK(back == yaml);
+      // a settled text or an explicit value is left as it is
+      std::string again = text;
+      rl::settle_auto(settled, !cuda, &again);
+      CHECK(again == text);
+      CHECK(settled.ppo.*k.value == cuda);
+    }
+    CHECK(resolve("hand_over", {"ppo." + k.key + "=true"}).ppo.*k.value);
+    CHECK_FALSE(resolve("hand_over", {"ppo." + k.key + "=true"}).ppo.*k.automatic);
+    CHECK_FALSE(resolve("hand_over", {"ppo." + k.key + "=false"}).ppo.*k.value);
+    CHECK_FALSE(mt({}).ppo.*k.value);
+    CHECK_FALSE(mt({}).ppo.*k.automatic);
+    CHECK(mt({"ppo." + k.key + "=true"}).ppo.*k.value);
+    CHECK(mt({"ppo." + k.key + "=auto"}).ppo.*k.automatic);
+    std::string old = yaml;  // a run's config from before the key existed
+    const auto at = old.find(k.key + ":");
+    const auto line = old.rfind('\n', at) + 1;
+    old.erase(line, old.find('\n', at) - line + 1);
+    const auto o = rl::parse_train_config(old, "run-config.yaml");
+    CHECK_FALSE(o.ppo.*k.value);
+    CHECK_FALSE(o.ppo.*k.automatic);
+    require_config_error([&] { resolve("hand_over", {"ppo." + k.key + "=half"}); },
+                         "ppo." + k.key, "true, false or auto", "half");
+    require_config_error(
+        [&] {
+          rl::resolve_train_yaml(rl::default_train_config("trpo"), "trpo", "hand_over",
+                                 {"trpo." + k.key + "=true"});
+        },
+        "trpo." + k.key, "a known key", k.key);
+  }
+  // a new CPU run's config.yaml: tests/rl/train_test.cc
 }
 
 TEST_CASE("bad overrides and bad values are ConfigErrors naming key, expected and actual",

@@ -57,7 +57,16 @@ TEST_CASE("a training run writes its config, metrics, curve and checkpoints", "[
   CHECK(r.updates == 3);
   CHECK(r.steps == 96);
   CHECK_FALSE(r.interrupted);
-  CHECK(read_file(dir + "/config.yaml") == yaml);
+  // config.yaml is the resolved YAML with ppo.yaml's `auto` settings as this CPU learner decided
+  // them (rl/config.h, settle_auto): the plain float32 networks
+  const std::string config = read_file(dir + "/config.yaml");
+  std::string want = yaml;
+  for (const std::string key : {"bf16", "bf16_act", "align_widths"}) {
+    const std::string was = "  " + key + ": auto\n";
+    REQUIRE(want.find(was) != std::string::npos);
+    want.replace(want.find(was), was.size(), "  " + key + ": false\n");
+  }
+  CHECK(config == want);
   CHECK(test::file_exists(dir + "/run.json"));
   CHECK(test::file_exists(dir + "/summary.json"));
   CHECK(metric(dir, "update") == std::vector<double>{1, 2, 3});
@@ -81,7 +90,10 @@ TEST_CASE("a training run writes its config, metrics, curve and checkpoints", "[
   CHECK(m.steps == 96);
   CHECK(m.obs_dim == 398);
   CHECK(m.act_dim == 40);
-  CHECK(m.config_hash == rl::config_hash(yaml));
+  CHECK(m.config_hash == rl::config_hash(config));
+  // the settled config builds the networks the checkpoint holds
+  rl::LoadedPolicy policy(dir);
+  CHECK(policy.act(torch::zeros({2, 398}), false).sizes() == torch::IntArrayRef({2, 40}));
 }
 
 TEST_CASE("a run steps the physics its env.physics names", "[rl][train]") {
