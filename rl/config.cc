@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include <yaml-cpp/yaml.h>
 
@@ -45,24 +46,32 @@ void merge(YAML::Node dst, const YAML::Node& src, const std::string& file, const
   }
 }
 
+// A value that is a bool or the one word `word` (value_norm's task, the switches' auto): the
+// bool, or nullopt for the word; anything else fails naming `expected`.
+std::optional<bool> bool_or_word(const YamlView& v, const std::string& word,
+                                 const std::string& expected) {
+  try {
+    return v.as<bool>();
+  } catch (const ConfigError&) {  // not a bool: the word, or an error naming the choices
+  }
+  std::string s;
+  try {
+    s = v.as<std::string>();
+  } catch (const ConfigError&) {
+  }
+  if (s != word) v.fail(expected, v.repr());
+  return std::nullopt;
+}
+
 // A setting of true, false or auto (`automatic`: decided by settle_auto for the learner's
 // device, `value` false until then); absent: false.
 void read_switch(const YamlView& parent, const char* key, bool& value, bool& automatic) {
   value = automatic = false;
-  const auto v = parent.maybe(key);
-  if (!v) return;
-  try {
-    value = v->as<bool>();
-    return;
-  } catch (const ConfigError&) {  // not a bool: auto, or an error naming the choices
+  if (const auto v = parent.maybe(key)) {
+    const auto b = bool_or_word(*v, "auto", "true, false or auto (on with a CUDA learner)");
+    value = b.value_or(false);
+    automatic = !b;
   }
-  std::string s;
-  try {
-    s = v->as<std::string>();
-  } catch (const ConfigError&) {
-  }
-  if (s != "auto") v->fail("true, false or auto (on with a CUDA learner)", v->repr());
-  automatic = true;
 }
 
 }  // namespace
@@ -320,15 +329,9 @@ TrainConfig parse_train_config(const std::string& yaml_text, const std::string& 
     o.obs_norm = p.req<bool>("obs_norm");
     {
       const auto vn = p.child("value_norm");
-      try {
-        o.value_norm = vn.as<bool>();
-      } catch (const ConfigError&) {  // not a bool: task, or an error naming the choices
-        std::string s;
-        try {
-          s = vn.as<std::string>();
-        } catch (const ConfigError&) {
-        }
-        if (s != "task") vn.fail("true, false or task (multi-task PPO)", vn.repr());
+      if (const auto b = bool_or_word(vn, "task", "true, false or task (multi-task PPO)")) {
+        o.value_norm = *b;
+      } else {
         if (c.algo != "mtppo")
           vn.fail("true or false (task normalises within each task of a suite's pack: --suite "
                   "with --algo mtppo; algorithm here: " + c.algo + ")",
@@ -398,20 +401,23 @@ void settle_auto(TrainConfig& c, bool cuda, std::string* yaml_text) {
   } settings[] = {{"bf16", &o.bf16, &o.bf16_auto},
                   {"bf16_act", &o.bf16_act, &o.bf16_act_auto},
                   {"align_widths", &o.align_widths, &o.align_widths_auto}};
-  YAML::Node root;
-  if (yaml_text) root = YAML::Load(*yaml_text);
+  std::vector<const char*> settled;
+  for (const auto& [key, value, automatic] : settings)
+    if (*automatic) {
+      *value = cuda;
+      *automatic = false;
+      settled.push_back(key);
+    }
+  if (!yaml_text || settled.empty()) return;
+  YAML::Node root = YAML::Load(*yaml_text);
+  const YAML::Node& view = root;  // const: looking a key up inserts nothing
+  const std::string& name = find_algorithm(c.algo).section;
+  if (!view[name] || !view[name].IsMap()) return;
   bool rewritten = false;
-  for (const auto& [key, value, automatic] : settings) {
-    if (!*automatic) continue;
-    *value = cuda;
-    *automatic = false;
-    if (!yaml_text) continue;
-    const std::string& name = find_algorithm(c.algo).section;
-    const YAML::Node& view = root;  // const: looking up inserts nothing
-    const YAML::Node was = view[name] && view[name].IsMap() ? view[name][key] : YAML::Node();
+  for (const char* key : settled) {
+    const YAML::Node was = view[name][key];
     if (was && was.IsScalar() && was.Scalar() == "auto") {
-      YAML::Node section = root[name];
-      section[key] = cuda;
+      root[name][key] = cuda;
       rewritten = true;
     }
   }
